@@ -1,0 +1,71 @@
+"""Grid: a regular raster of cells (2.5D surfaces, heightmaps, colour maps)."""
+from __future__ import annotations
+
+from functools import cached_property
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import InputError
+from .base import Domain
+
+
+class Grid(Domain):
+    """A (ny, nx) raster of square cells of side ``spacing``; cell fields are (ny, nx, ...) arrays.
+
+    Fields keep the raster shape (not flattened) because every raster tool, image writer and
+    numpy stencil expects it. Several layers are trailing dims of a field, named by ``layers``.
+    """
+
+    kind: ClassVar[str] = "Grid"
+    locations: ClassVar[tuple[str, ...]] = ("cell",)
+
+    def __init__(self, shape: tuple[int, int], spacing: float = 1.0,
+                 origin: tuple[float, float] = (0.0, 0.0), layers: tuple[str, ...] = ()) -> None:
+        super().__init__()
+        try:
+            ny, nx = (int(v) for v in shape)
+        except (TypeError, ValueError):
+            raise InputError(f"Grid: shape must be (ny, nx), got {shape!r}") from None
+        if ny < 1 or nx < 1:
+            raise InputError(f"Grid: shape must be positive, got {(ny, nx)}")
+        if not (np.isfinite(spacing) and spacing > 0):
+            raise InputError(f"Grid: spacing must be a positive number, got {spacing!r}")
+        self.shape = (ny, nx)
+        self.spacing = float(spacing)
+        self.origin = (float(origin[0]), float(origin[1]))
+        self.layers = tuple(str(n) for n in layers)
+
+    def location_shape(self, at: str) -> tuple[int, ...]:
+        return self.shape
+
+    @property
+    def n_cells(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    @cached_property
+    def x(self) -> np.ndarray:
+        """Cell-centre x coordinates (nx,)."""
+        return self.origin[0] + (np.arange(self.shape[1]) + 0.5) * self.spacing
+
+    @cached_property
+    def y(self) -> np.ndarray:
+        """Cell-centre y coordinates (ny,)."""
+        return self.origin[1] + (np.arange(self.shape[0]) + 0.5) * self.spacing
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, xmax, ymin, ymax) of the raster's outer boundary."""
+        return (self.origin[0], self.origin[0] + self.shape[1] * self.spacing,
+                self.origin[1], self.origin[1] + self.shape[0] * self.spacing)
+
+    def topology_arrays(self) -> dict[str, np.ndarray]:
+        return {}
+
+    def topology_meta(self) -> dict[str, Any]:
+        return {"shape": list(self.shape), "spacing": self.spacing, "origin": list(self.origin),
+                "layers": list(self.layers)}
+
+    @classmethod
+    def from_topology(cls, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> "Grid":
+        return cls(tuple(meta["shape"]), meta["spacing"], tuple(meta["origin"]), tuple(meta.get("layers", ())))

@@ -1,0 +1,21 @@
+"""The error hierarchy: every expected failure is a ProcgenError with a one-line message.
+
+The CLI prints ``str(error)`` and exits non-zero; anything that is not a ProcgenError is a bug.
+"""
+from __future__ import annotations
+
+
+class ProcgenError(Exception):
+    """Base of every error procgen raises on purpose (bad input, bad recipe, broken plugin)."""
+
+
+class RecipeError(ProcgenError):
+    """A recipe (TOML file or --set override) is malformed or inconsistent."""
+
+
+class PluginError(ProcgenError):
+    """A plugin failed to load, or registered something invalid."""
+
+
+class InputError(ProcgenError):
+    """Data handed to a rule or exporter is unusable (wrong shape, broken mesh, NaN...)."""

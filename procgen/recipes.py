@@ -1,0 +1,375 @@
+"""Recipes: TOML data naming rules to run in order and outputs to write, checked before running.
+
+The static check follows the data flow (which step creates which domain and field) so that a
+recipe chaining incompatible domains fails in one line naming the step, before any compute.
+"""
+from __future__ import annotations
+
+import copy
+import inspect
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+from typing import TYPE_CHECKING, Any
+
+from .domains import DOMAIN_KINDS, is_kind
+from .errors import PluginError, ProcgenError, RecipeError
+from .params import did_you_mean
+from .rules import RuleBase
+
+if TYPE_CHECKING:
+    from .plugins import PluginHost
+
+TOP_KEYS = ("recipe", "steps", "outputs")
+META_KEYS = ("name", "description", "seed", "figure", "caption", "table_row", "notes")
+STEP_KEYS = ("rule", "params", "iterations", "until", "max_iterations", "frames", "label")
+OUTPUT_KEYS = ("domain", "format", "file", "options")
+FRAME_KEYS = ("every", "domain", "format", "options")
+DEFAULT_MAX_ITERATIONS = 100_000
+
+
+@dataclass
+class OutputSpec:
+    domain: str
+    format: str
+    file: str
+    options: dict[str, Any]
+
+
+@dataclass
+class FrameSpec:
+    every: int
+    domain: str
+    format: str
+    options: dict[str, Any]
+
+
+@dataclass
+class Step:
+    index: int
+    rule: RuleBase
+    params: dict[str, Any]
+    iterations: int
+    until_stable: bool
+    frames: FrameSpec | None = None
+    label: str = ""
+
+    @property
+    def where(self) -> str:
+        return f"steps[{self.index}] ({self.rule.name})"
+
+
+@dataclass
+class Recipe:
+    """A checked recipe: rule instances ready to run, outputs to write."""
+
+    source: str
+    data: dict[str, Any]
+    steps: list[Step]
+    outputs: list[OutputSpec]
+    meta: dict[str, Any] = field(default_factory=dict)
+    base_dir: Path | None = None
+
+    @property
+    def name(self) -> str:
+        return str(self.meta.get("name") or Path(self.source).stem)
+
+    @property
+    def seed(self) -> int:
+        return int(self.meta.get("seed", 0))
+
+
+# -- finding and reading -----------------------------------------------------------------------
+def find_recipe(ref: str | Path, host: "PluginHost") -> Path:
+    """A path to an existing file, or a built-in recipe name like ``clouds/cumulus``."""
+    p = Path(ref)
+    if p.is_file():
+        return p
+    name = str(ref).removesuffix(".toml")
+    for d in host.recipe_dirs():
+        cand = d / f"{name}.toml"
+        if cand.is_file():
+            return cand
+    known = list_recipes(host)
+    raise RecipeError(f"{ref}: no such recipe file or built-in recipe{did_you_mean(name, known)}")
+
+
+def list_recipes(host: "PluginHost") -> dict[str, Path]:
+    out: dict[str, Path] = {}
+    for d in host.recipe_dirs():
+        for f in sorted(d.rglob("*.toml")):
+            out.setdefault(f.relative_to(d).with_suffix("").as_posix(), f)
+    return dict(sorted(out.items()))
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RecipeError(f"{path}: cannot read ({exc})") from None
+    return parse_toml(text, str(path))
+
+
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RecipeError(f"{source}: invalid TOML ({exc})") from None
+
+
+# -- overrides -----------------------------------------------------------------------------------
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``steps.2.params.speed=0.7`` -> (['steps', '2', 'params', 'speed'], 0.7)."""
+    if "=" not in text:
+        raise RecipeError(f"--set {text!r}: expected KEY=VALUE, e.g. steps.1.params.r=0.005")
+    key, raw = text.split("=", 1)
+    parts = [p for p in key.strip().split(".")]
+    if not all(parts):
+        raise RecipeError(f"--set {text!r}: empty part in key {key!r}")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()  # a bare word is taken as a string, as a shell user would expect
+    return parts, value
+
+
+def apply_overrides(data: dict[str, Any], overrides: list[str], source: str) -> dict[str, Any]:
+    out = copy.deepcopy(data)
+    for text in overrides:
+        parts, value = parse_override(text)
+        node: Any = out
+        for i, part in enumerate(parts):
+            last = i == len(parts) - 1
+            here = ".".join(parts[: i + 1])
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise RecipeError(f"{source}: --set {here}: no such index (there are {len(node)})")
+                if last:
+                    node[int(part)] = value
+                else:
+                    node = node[int(part)]
+            elif isinstance(node, dict):
+                if last:
+                    node[part] = value
+                else:
+                    if part not in node:
+                        node[part] = {}
+                    node = node[part]
+            else:
+                raise RecipeError(f"{source}: --set {here}: cannot index into a {type(node).__name__}")
+    return out
+
+
+# -- the static check ----------------------------------------------------------------------------
+def _require_table(value: Any, where: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise RecipeError(f"{where}: must be a table, got {type(value).__name__}")
+    return value
+
+
+def _check_keys(table: dict[str, Any], allowed: tuple[str, ...], where: str) -> None:
+    for k in table:
+        if k not in allowed:
+            raise RecipeError(f"{where}: unknown key {k!r}{did_you_mean(k, allowed)}")
+
+
+def _check_finite(value: Any, where: str) -> None:
+    if isinstance(value, float) and not math.isfinite(value):
+        raise RecipeError(f"{where}: must be a finite number, got {value}")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_finite(v, f"{where}.{k}")
+    if isinstance(value, list):
+        for i, v in enumerate(value):
+            _check_finite(v, f"{where}[{i}]")
+
+
+def _positive_int(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise RecipeError(f"{where}: expected a positive integer, got {value!r}")
+    return value
+
+
+def _kind_fits(made: str, wanted: str) -> bool:
+    if made == wanted:
+        return True
+    cls = DOMAIN_KINDS.get(made)
+    return cls is not None and is_kind(cls, wanted)
+
+
+def _check_exporter_options(fmt: str, options: dict[str, Any], host: "PluginHost", where: str) -> None:
+    exporter = host.exporter(fmt)
+    sig = inspect.signature(exporter.func)
+    accepts_any = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+    allowed = [n for n, p in sig.parameters.items() if p.kind is p.KEYWORD_ONLY and n not in ("stem", "provenance")]
+    for k in options:
+        if k in ("stem", "provenance") or (not accepts_any and k not in allowed):
+            raise RecipeError(f"{where}: format {fmt!r} has no option {k!r}{did_you_mean(k, allowed)}"
+                              f"; options: {', '.join(allowed) or 'none'}")
+
+
+class _Flow:
+    """Domains (name -> kind) and fields ((domain, field)) available so far."""
+
+    def __init__(self) -> None:
+        self.domains: dict[str, str] = {}
+        self.fields: set[tuple[str, str]] = set()
+
+    def check_output(self, domain: str, fmt: str, options: dict[str, Any], host: "PluginHost", where: str) -> None:
+        if domain not in self.domains:
+            raise RecipeError(f"{where}: no step creates domain {domain!r}"
+                              f"{did_you_mean(domain, self.domains)} (domains: {', '.join(self.domains) or 'none'})")
+        try:
+            exporter = host.exporter(fmt)
+        except PluginError as exc:
+            raise RecipeError(f"{where}: {exc}") from None
+        kind = self.domains[domain]
+        if not any(_kind_fits(kind, k) for k in exporter.kinds):
+            raise RecipeError(f"{where}: format {fmt!r} writes {'/'.join(exporter.kinds)}, "
+                              f"but domain {domain!r} is a {kind}")
+        _check_exporter_options(fmt, options, host, where)
+        for key, value in options.items():
+            if key.endswith("field") and isinstance(value, str) and (domain, value) not in self.fields:
+                have = sorted(f for d, f in self.fields if d == domain)
+                raise RecipeError(f"{where}: option {key}={value!r}: domain {domain!r} has no field "
+                                  f"{value!r}{did_you_mean(value, have)}")
+
+
+def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
+                 base_dir: Path | None = None) -> Recipe:
+    """Validate a parsed recipe completely; return runnable steps. Raises RecipeError."""
+    data = _require_table(data, source)
+    _check_keys(data, TOP_KEYS, source)
+    meta = _require_table(data.get("recipe", {}), f"{source}: [recipe]")
+    _check_keys(meta, META_KEYS, f"{source}: [recipe]")
+    if "seed" in meta and (isinstance(meta["seed"], bool) or not isinstance(meta["seed"], int) or meta["seed"] < 0):
+        raise RecipeError(f"{source}: [recipe] seed: expected a non-negative integer, got {meta['seed']!r}")
+    raw_steps = data.get("steps")
+    if not isinstance(raw_steps, list) or not raw_steps:
+        raise RecipeError(f"{source}: needs at least one [[steps]] table")
+    flow = _Flow()
+    steps: list[Step] = []
+    for i, raw in enumerate(raw_steps):
+        where = f"{source}: steps[{i}]"
+        raw = _require_table(raw, where)
+        _check_keys(raw, STEP_KEYS, where)
+        rule_name = raw.get("rule")
+        if not isinstance(rule_name, str):
+            raise RecipeError(f"{where}: missing 'rule' (a rule name such as 'points.poisson_disk')")
+        try:
+            cls = host.rule(rule_name)
+        except PluginError as exc:
+            raise RecipeError(f"{where}: {exc}") from None
+        where = f"{source}: steps[{i}] ({rule_name})"
+        params = _require_table(raw.get("params", {}), f"{where}: params")
+        _check_finite(params, f"{where}: params")
+        rule = cls.from_params(params, where)
+        until = raw.get("until")
+        if until is not None and until != "stable":
+            raise RecipeError(f"{where}: until: only \"stable\" is supported, got {until!r}")
+        if until is not None and "iterations" in raw:
+            raise RecipeError(f"{where}: give either 'iterations' or 'until', not both")
+        if until is not None:
+            iterations = _positive_int(raw.get("max_iterations", DEFAULT_MAX_ITERATIONS), f"{where}: max_iterations")
+        else:
+            if "max_iterations" in raw:
+                raise RecipeError(f"{where}: 'max_iterations' only goes with until = \"stable\"")
+            iterations = _positive_int(raw.get("iterations", cls.default_iterations), f"{where}: iterations")
+        # data flow: what this rule needs must exist already
+        for dname, kind in rule.domains_used().items():
+            if dname not in flow.domains:
+                raise RecipeError(f"{where}: needs a {kind} domain {dname!r} that no earlier step creates"
+                                  f" (domains so far: {', '.join(flow.domains) or 'none'})")
+            if not _kind_fits(flow.domains[dname], kind):
+                raise RecipeError(f"{where}: needs domain {dname!r} to be a {kind}, "
+                                  f"but an earlier step made it a {flow.domains[dname]}")
+        specs = rule.field_specs()
+        for spec in specs:
+            if spec.intent in ("in", "inout") and (spec.domain, spec.name) not in flow.fields:
+                raise RecipeError(f"{where}: needs field {spec.name!r} on domain {spec.domain!r}, "
+                                  "which no earlier step produces")
+        passes = getattr(rule, "passes_fields", {}) or {}
+        values = rule.param_values()
+        for dname, kind in rule.domains_created().items():
+            flow.domains[dname] = kind
+            flow.fields = {(d, f) for d, f in flow.fields if d != dname}
+        for out_t, in_t in passes.items():
+            out_d, in_d = out_t.format(**values), in_t.format(**values)
+            flow.fields |= {(out_d, f) for d, f in list(flow.fields) if d == in_d}
+        for spec in specs:
+            if spec.intent in ("out", "inout"):
+                flow.fields.add((spec.domain, spec.name))
+        frames = None
+        if "frames" in raw:
+            fr = _require_table(raw["frames"], f"{where}: frames")
+            _check_keys(fr, FRAME_KEYS, f"{where}: frames")
+            for key in ("every", "domain", "format"):
+                if key not in fr:
+                    raise RecipeError(f"{where}: frames: missing {key!r}")
+            every = _positive_int(fr["every"], f"{where}: frames.every")
+            fopts = _require_table(fr.get("options", {}), f"{where}: frames.options")
+            _check_finite(fopts, f"{where}: frames.options")
+            flow.check_output(str(fr["domain"]), str(fr["format"]), fopts, host, f"{where}: frames")
+            frames = FrameSpec(every, str(fr["domain"]), str(fr["format"]), fopts)
+        label = raw.get("label", "")
+        if not isinstance(label, str):
+            raise RecipeError(f"{where}: label must be a string")
+        steps.append(Step(i, rule, params, iterations, until == "stable", frames, label))
+    need = sum(int(s.rule.memory_estimate()) for s in steps)
+    limit = memory_limit_bytes()
+    if need > limit:
+        worst = max(steps, key=lambda s: s.rule.memory_estimate())
+        raise RecipeError(f"{source}: {worst.where}: needs about {need / 2**30:.1f} GiB, more than the "
+                          f"{limit / 2**30:.1f} GiB this machine can give; reduce its size")
+    outputs: list[OutputSpec] = []
+    raw_outputs = data.get("outputs", [])
+    if not isinstance(raw_outputs, list):
+        raise RecipeError(f"{source}: 'outputs' must be an array of tables ([[outputs]])")
+    seen_files: set[str] = set()
+    for j, raw in enumerate(raw_outputs):
+        where = f"{source}: outputs[{j}]"
+        raw = _require_table(raw, where)
+        _check_keys(raw, OUTPUT_KEYS, where)
+        for key in ("domain", "format"):
+            if not isinstance(raw.get(key), str):
+                raise RecipeError(f"{where}: missing {key!r} (a string)")
+        opts = _require_table(raw.get("options", {}), f"{where}: options")
+        _check_finite(opts, f"{where}: options")
+        flow.check_output(raw["domain"], raw["format"], opts, host, where)
+        exporter = host.exporter(raw["format"])
+        fname = raw.get("file", f"{raw['domain']}{exporter.suffix}")
+        if not isinstance(fname, str) or not fname:
+            raise RecipeError(f"{where}: file must be a non-empty relative path")
+        pp = PurePosixPath(fname)
+        if pp.is_absolute() or ".." in pp.parts or fname.startswith(("/", "\\")):
+            raise RecipeError(f"{where}: file {fname!r} must stay inside the output folder")
+        if fname in seen_files:
+            raise RecipeError(f"{where}: file {fname!r} is written by an earlier output too")
+        seen_files.add(fname)
+        outputs.append(OutputSpec(raw["domain"], raw["format"], fname, opts))
+    return Recipe(source, data, steps, outputs, dict(meta), base_dir)
+
+
+def memory_limit_bytes() -> int:
+    """80% of physical memory: a recipe estimated above this is refused before it starts."""
+    import os
+
+    try:
+        return int(0.8 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 8 * 2**30
+
+
+def load_recipe(ref: str | Path, host: "PluginHost", overrides: list[str] | None = None) -> Recipe:
+    """Find, read, override and check a recipe. Every failure is a one-line RecipeError."""
+    path = find_recipe(ref, host)
+    data = read_toml(path)
+    if overrides:
+        data = apply_overrides(data, overrides, str(path))
+    try:
+        return check_recipe(data, host, str(path), path.parent)
+    except ProcgenError:
+        raise
+    except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
+        raise RecipeError(f"{path}: malformed recipe ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,175 @@
+"""Running a checked recipe: iteration, progress bar, frames, outputs and run.json."""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable
+
+from .errors import InputError, PluginError, ProcgenError
+from .exchange import write
+from .recipes import OutputSpec, Recipe
+from .state import State, StepRecord
+
+if TYPE_CHECKING:
+    from .plugins import PluginHost
+
+StepCallback = Callable[[State, StepRecord], None]
+
+
+@dataclass
+class RunResult:
+    """The state a run built and the files it wrote (relative to the output folder)."""
+
+    state: State
+    files: list[str] = field(default_factory=list)
+    run_info: dict[str, Any] = field(default_factory=dict)
+
+
+def recipe_hash(recipe: Recipe) -> str:
+    blob = json.dumps(recipe.data, sort_keys=True, default=str).encode()
+    return hashlib.sha256(blob).hexdigest()[:16]
+
+
+def provenance(recipe: Recipe, seed: int, host: "PluginHost") -> dict[str, Any]:
+    """What made an output: recipe name and hash, seed and versions (no time, no paths)."""
+    return {"recipe": recipe.name, "recipe_sha256": recipe_hash(recipe), "seed": int(seed),
+            "versions": host.versions()}
+
+
+def export(state: State, spec: OutputSpec, host: "PluginHost", out_dir: Path, stem: str,
+           prov: dict[str, Any]) -> list[str]:
+    """Run one exporter and write its files atomically; returns the written names."""
+    exporter = host.exporter(spec.format)
+    domain = state.get(spec.domain)
+    if not exporter.accepts(type(domain)):
+        raise InputError(f"output {spec.file!r}: format {spec.format!r} cannot write a {domain.kind}")
+    try:
+        blob = exporter.func(domain, stem=stem, provenance=prov, **spec.options)
+    except ProcgenError:
+        raise
+    except (ValueError, TypeError, KeyError) as exc:
+        raise InputError(f"output {spec.file!r} ({spec.format}): {type(exc).__name__}: {exc}") from None
+    rel_dir = Path(spec.file).parent
+    files = {Path(spec.file).name: blob} if isinstance(blob, (bytes, str)) else dict(blob)
+    written = []
+    for name, data in files.items():
+        rel = rel_dir / Path(name).name
+        write(out_dir / rel, data)
+        written.append(rel.as_posix())
+    return written
+
+
+def _progress(total: int | None, desc: str, enabled: bool) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, disable=not enabled, leave=False, dynamic_ncols=True,
+                unit="step", file=sys.stderr)
+
+
+def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir: Path | None = None,
+        progress: bool | None = None, on_step: StepCallback | None = None,
+        save_state: bool = False) -> RunResult:
+    """Run every step of a checked recipe, then write its outputs and run.json into ``out_dir``.
+
+    Nothing is written when a step fails. ``progress=None`` shows bars only on a terminal.
+    """
+    seed = recipe.seed if seed is None else int(seed)
+    show = sys.stderr.isatty() if progress is None else progress
+    state = State(seed=seed, base_dir=recipe.base_dir)
+    prov = provenance(recipe, seed, host)
+    result = RunResult(state)
+    step_info: list[dict[str, Any]] = []
+    pending_frames: list[tuple[OutputSpec, str]] = []
+    frame_states: list[tuple[OutputSpec, bytes | dict[str, bytes], str]] = []
+    for step in recipe.steps:
+        rule = step.rule
+        state.step_index, state.rule_name, state.iteration = step.index, rule.name, -1
+        t_start = time.perf_counter()
+        try:
+            rule.setup(state)
+            changed_count = 0
+            stopped = "iterations"
+            bar_total = None if step.until_stable else step.iterations
+            with _progress(bar_total, f"[{step.index}] {rule.name}", show and step.iterations > 1) as bar:
+                for it in range(step.iterations):
+                    state.iteration = it
+                    t0 = time.perf_counter()
+                    changed = rule.step(state)
+                    if not isinstance(changed, (bool,)) and type(changed).__name__ != "bool_":
+                        raise PluginError(f"{step.where}: step() must return a bool, got {type(changed).__name__}")
+                    changed = bool(changed)
+                    rec = StepRecord(step.index, rule.name, it, changed, time.perf_counter() - t0)
+                    state.records.append(rec)
+                    changed_count += changed
+                    if on_step is not None:
+                        on_step(state, rec)
+                    bar.update(1)
+                    if step.frames is not None and (it + 1) % step.frames.every == 0:
+                        spec = OutputSpec(step.frames.domain, step.frames.format,
+                                          _frame_name(step, it + 1, host), step.frames.options)
+                        frame_states.append(_render_frame(state, spec, host, prov))
+                    if step.until_stable and not changed:
+                        stopped = "stable"
+                        break
+                else:
+                    if step.until_stable:
+                        stopped = "max_iterations"
+            state.iteration = step.iterations
+            rule.finish(state)
+        except ProcgenError as exc:
+            raise type(exc)(f"{step.where}: {exc}") if not str(exc).startswith(step.where) else exc
+        step_info.append({"index": step.index, "rule": rule.name, "label": step.label,
+                          "params": rule.param_values(), "iterations": state.iteration if stopped != "stable"
+                          else it + 1, "changed_iterations": changed_count, "stopped": stopped,
+                          "seconds": round(time.perf_counter() - t_start, 4)})
+    del pending_frames
+    if out_dir is None:
+        return result
+    out_dir = Path(out_dir)
+    for spec, blob, stem in frame_states:
+        files = {Path(spec.file).name: blob} if isinstance(blob, (bytes, str)) else dict(blob)
+        for name, data in files.items():
+            rel = Path(spec.file).parent / Path(name).name
+            write(out_dir / rel, data)
+            result.files.append(rel.as_posix())
+    for spec in recipe.outputs:
+        stem = str(Path(spec.file).with_suffix(""))
+        result.files += export(state, spec, host, out_dir, Path(stem).name, prov)
+    if save_state:
+        state.save(out_dir / "state.npz")
+        result.files.append("state.npz")
+    info = {"recipe": recipe.name, "source": Path(recipe.source).name, "seed": seed,
+            "meta": recipe.meta, "resolved_recipe": recipe.data, "provenance": prov,
+            "steps": step_info, "reports": state.reports, "files": sorted(result.files)}
+    write(out_dir / "run.json", json.dumps(info, indent=2, sort_keys=True, default=_json_default) + "\n")
+    result.files.append("run.json")
+    result.run_info = info
+    return result
+
+
+def _json_default(value: Any) -> Any:
+    import numpy as np
+
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)
+
+
+def _frame_name(step: Any, iteration: int, host: "PluginHost") -> str:
+    suffix = host.exporter(step.frames.format).suffix
+    return f"frames/step{step.index}/frame_{iteration:04d}{suffix}"
+
+
+def _render_frame(state: State, spec: OutputSpec, host: "PluginHost",
+                  prov: dict[str, Any]) -> tuple[OutputSpec, Any, str]:
+    """Export a frame now (the domain changes later) but keep the bytes until the run succeeds."""
+    exporter = host.exporter(spec.format)
+    stem = Path(spec.file).with_suffix("").name
+    blob = exporter.func(state.get(spec.domain), stem=stem, provenance=prov, **spec.options)
+    return spec, blob, stem
