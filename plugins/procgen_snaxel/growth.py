@@ -1,0 +1,393 @@
+"""The snaxel cloud simulation: curves, speeds, Euler motion, events and clusters.
+
+One ``step()`` is one Euler step of every snaxel (vectorised over the chain), followed by the
+topology events in order of arrival time (per event), curve maintenance (length-limits table
+and c_min; Python only for the few curves that split or merge) and cluster control.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .config import GrowthConfig
+from .snake import CURVE, DX, DY, ELEN, OX, OY, POS, T, U, UNVISITED, V, Snake
+from .speeds import base_speed, blend, circular_profile, effect_coefficient, linear_profile
+from .topology import Topology
+
+
+@dataclass
+class Snapshot:
+    step: int
+    xy: np.ndarray
+    curve: np.ndarray
+    cluster: np.ndarray
+
+
+@dataclass
+class Runs:
+    """The curve partition of the chain plus per-curve geometry (all flat arrays)."""
+
+    starts: np.ndarray     # first chain index of each run
+    rid: np.ndarray        # run index of each snaxel
+    count: np.ndarray      # snaxels per run
+    curve: np.ndarray      # curve id of each run
+    length: np.ndarray     # curve length (own segments only, A6)
+    arc: np.ndarray        # arc position of each snaxel inside its curve
+    s: np.ndarray          # arc position of each snaxel along the closed chain
+    perimeter: float
+
+
+@dataclass
+class Stats:
+    steps: int = 0
+    splits: int = 0
+    curve_merges: int = 0
+    clusters_grown: int = 0
+    clusters_stalled: int = 0
+    cluster_log: list = field(default_factory=list)
+    sketch_steps: int = 0
+
+
+class CloudGrowth:
+    """A single snake growing one cloud on a fixed tessellation."""
+
+    def __init__(self, topo: Topology, cfg: GrowthConfig, rng: np.random.Generator,
+                 bounds: tuple[float, float, float, float] | None = None,
+                 marked: np.ndarray | None = None) -> None:
+        self.cfg = cfg
+        self.limits = cfg.check()
+        self.topo = topo
+        pts = topo.points
+        if bounds is None:
+            bounds = (float(pts[:, 0].min()), float(pts[:, 1].min()),
+                      float(pts[:, 0].max()), float(pts[:, 1].max()))
+        self.bounds = bounds
+        x0, y0, x1, y1 = bounds
+        m = cfg.margin
+        blocked = (pts[:, 0] < x0 + m) | (pts[:, 0] > x1 - m) | (pts[:, 1] < y0 + m) | (pts[:, 1] > y1 - m)
+        self.snake = Snake(topo, blocked)
+        # independent streams: curve speeds, split points, cluster choices (digest property 22)
+        self.rng_speed, self.rng_split, self.rng_cluster = rng.spawn(3)
+        self.vb = np.zeros(0)
+        self.vs = np.zeros(0)
+        self.cluster_of = np.zeros(0, np.int64)
+        self.n_curves = 0
+        self.marked = marked
+        self.phase = "sketch" if marked is not None else "grow"
+        if marked is not None:
+            cand = np.flatnonzero(marked & ~self.snake.blocked)
+            if len(cand) == 0:
+                raise ValueError("the sketch marks no vertex inside the margin")
+            target = np.asarray(cfg.source if cfg.source is not None else pts[cand].mean(0))
+            source = int(cand[np.argmin(np.hypot(*(pts[cand] - target).T))])
+        else:
+            target = np.asarray(cfg.source if cfg.source is not None else [(x0 + x1) / 2, (y0 + y1) / 2])
+            if not (x0 + m <= target[0] <= x1 - m and y0 + m <= target[1] <= y1 - m):
+                raise ValueError(f"source {list(target)} lies outside the domain margin {bounds}")
+            free = np.flatnonzero(~self.snake.blocked)
+            source = int(free[np.argmin(np.hypot(*(pts[free] - target).T))])
+        self.source = source
+        first = self._new_curve(cluster=0)
+        self.snake.start(source, cfg.init_offset, first)
+        self.active = 0
+        self.g = float(self.rng_cluster.uniform(cfg.g_min, cfg.g_max))
+        self.cluster_start = 0
+        self.best_t = 0.0
+        self.best_step = 0
+        self.done = False
+        self.stats = Stats()
+        self.snapshots: list[Snapshot] = []
+        self.snapshot_every = cfg.snapshot_every
+        self.last_speed = np.zeros(len(self.snake))
+
+    # -- curve table ------------------------------------------------------------------------
+    def _new_curve(self, cluster: int, copy_of: int | None = None) -> int:
+        cid = self.n_curves
+        if cid >= len(self.vb):
+            cap = max(64, 2 * len(self.vb))
+            self.vb = np.resize(self.vb, cap)
+            self.vs = np.resize(self.vs, cap)
+            self.cluster_of = np.resize(self.cluster_of, cap)
+        if copy_of is None:   # A8: independent draws for the base value and the shape speed
+            self.vb[cid], self.vs[cid] = self.rng_speed.uniform(self.cfg.v_min, self.cfg.v_max, 2)
+        else:
+            self.vb[cid], self.vs[cid] = self.vb[copy_of], self.vs[copy_of]
+        self.cluster_of[cid] = cluster
+        self.n_curves += 1
+        return cid
+
+    # -- chain geometry ---------------------------------------------------------------------
+    def runs(self, xy: np.ndarray | None = None) -> Runs:
+        snake = self.snake
+        c = snake.ints[:, CURVE]
+        n = len(c)
+        if xy is None:
+            xy = snake.xy()
+        d = np.roll(xy, -1, axis=0) - xy
+        seg = np.hypot(d[:, 0], d[:, 1])               # segment i joins snaxel i to i+1
+        start_mask = c != np.roll(c, 1)
+        if not start_mask.any():
+            start_mask[0] = True
+        if not start_mask[0]:
+            raise AssertionError("chain must start at a curve boundary")
+        starts = np.flatnonzero(start_mask)
+        rid = np.cumsum(start_mask) - 1
+        ends = np.append(starts[1:], n) - 1
+        inner = seg.copy()
+        inner[ends] = 0.0                              # gap segments belong to no curve
+        length = np.bincount(rid, inner, minlength=len(starts))
+        cs = np.concatenate([[0.0], np.cumsum(inner)])
+        arc = cs[:-1] - cs[starts][rid]
+        cg = np.concatenate([[0.0], np.cumsum(seg)])
+        return Runs(starts, rid, np.diff(np.append(starts, n)), c[starts], length, arc, cg[:-1], float(cg[-1]))
+
+    def normalise(self) -> None:
+        """Keep curves contiguous (fragments left by hole discards become curves of their own)
+        and start the chain at a curve boundary."""
+        snake = self.snake
+        c = snake.ints[:, CURVE]
+        start_mask = c != np.roll(c, 1)
+        if not start_mask.any():
+            return
+        starts = np.flatnonzero(start_mask)
+        if starts[0] != 0:
+            snake.roll(int(starts[0]))
+            c = snake.ints[:, CURVE]
+            starts = starts - starts[0]
+        labels = c[starts]
+        if len(np.unique(labels)) != len(labels):   # rare: a curve cut in two by a discarded hole
+            seen: set[int] = set()
+            ends = np.append(starts[1:], len(c))
+            for s0, e0, lab in zip(starts, ends, labels):
+                lab = int(lab)
+                if lab in seen:
+                    snake.ints[s0:e0, CURVE] = self._new_curve(int(self.cluster_of[lab]), copy_of=lab)
+                seen.add(lab)
+
+    # -- curve maintenance (active cluster only, A13) ------------------------------------------
+    def maintain(self, runs: Runs, t: np.ndarray) -> bool:
+        cfg = self.cfg
+        active = self.cluster_of[runs.curve] == self.active
+        tmax = np.maximum.reduceat(t, runs.starts)
+        limit = self.limits.limit(tmax)
+        changed = False
+        too_long = np.flatnonzero(active & (runs.length > limit) & (runs.count >= 4))
+        for r in too_long:      # per split event (a handful per step at most)
+            s0 = int(runs.starts[r])
+            changed |= self._split(s0, s0 + int(runs.count[r]), runs.arc)
+        if len(runs.starts) > 1:
+            short = np.flatnonzero(active & (runs.length < cfg.c_min))
+            if len(short):
+                c = self.snake.ints[:, CURVE]
+                n = len(c)
+                for r in short:     # per merge event; A12: a random neighbour of the same cluster
+                    s0 = int(runs.starts[r])
+                    e0 = s0 + int(runs.count[r])
+                    own = int(c[s0])
+                    nbrs = [int(c[(s0 - 1) % n]), int(c[e0 % n])]
+                    nbrs = [x for x in nbrs if x != own and self.cluster_of[x] == self.active]
+                    if nbrs:
+                        pick = nbrs[int(self.rng_split.integers(len(nbrs)))]
+                        c[s0:e0] = pick
+                        self.stats.curve_merges += 1
+                        changed = True
+        return changed
+
+    def _split(self, s0: int, e0: int, arc: np.ndarray) -> bool:
+        """Split the curve on chain[s0:e0] at random snaxels until every piece fits its limit."""
+        cfg = self.cfg
+        snake = self.snake
+        t = snake.flts[:, T]
+        work = [(s0, e0)]
+        did = False
+        base = arc[s0:e0] - arc[s0]
+        while work:
+            a, b = work.pop()
+            loc = base[a - s0:b - s0] - base[a - s0]
+            length = float(loc[-1])
+            if length <= float(self.limits.limit(t[a:b].max())) or b - a < 4:
+                continue
+            # piece 1 = a..i, piece 2 = i+1..b-1, >= 2 snaxels and >= c_min long each (A7)
+            i = np.arange(1, b - a - 2)
+            ok = (loc[i] >= cfg.c_min) & (length - loc[i + 1] >= cfg.c_min)
+            cand = i[ok]
+            if len(cand) == 0:
+                continue
+            cut = a + int(cand[int(self.rng_split.integers(len(cand)))])
+            cl = int(self.cluster_of[snake.ints[a, CURVE]])
+            snake.ints[a:cut + 1, CURVE] = self._new_curve(cl)
+            snake.ints[cut + 1:b, CURVE] = self._new_curve(cl)
+            self.stats.splits += 1
+            did = True
+            work.append((a, cut + 1))
+            work.append((cut + 1, b))
+        return did
+
+    # -- speeds -----------------------------------------------------------------------------
+    def speeds(self, runs: Runs) -> np.ndarray:
+        cfg = self.cfg
+        snake = self.snake
+        curve = snake.ints[:, CURVE]
+        t = snake.flts[:, T]
+        L = runs.length[runs.rid]
+        if self.phase == "sketch":
+            dest = snake.ints[:, V]
+            go = self.marked[dest] & ~snake.blocked[dest]
+            return np.where(go, cfg.sketch_speed or cfg.v_max, 0.0)
+        if cfg.details == "circular":
+            x = np.divide(cfg.G_max * runs.arc, L, out=np.zeros_like(L), where=L > 0)
+            lv = np.where(L > 0, circular_profile(x, cfg.G_max, self.vs[curve]), 0.0)
+        else:
+            u = np.divide(runs.arc, L, out=np.zeros_like(L), where=L > 0)
+            lv = np.where(L > 0, linear_profile(u, self.vs[curve]), 0.0)
+        if cfg.base == "off":
+            v = lv
+        else:
+            bv = base_speed(runs.s, runs.s[runs.starts], runs.length, self.vb[runs.curve], runs.perimeter)
+            v = bv + lv if cfg.base == "sum" else blend(bv, lv, effect_coefficient(t, cfg.r), cfg.w_s)
+        moving = (self.cluster_of[curve] == self.active) & ~snake.blocked[snake.ints[:, V]]
+        return np.where(moving, v, 0.0)
+
+    # -- one Euler step ---------------------------------------------------------------------
+    def step(self) -> bool:
+        """Advance one time step; False once the run has finished."""
+        if self.done:
+            return False
+        cfg = self.cfg
+        snake = self.snake
+        if self.snapshot_every and self.stats.steps % self.snapshot_every == 0:
+            self.snapshot()
+        xy = snake.xy()
+        runs = self.runs(xy)
+        if self.phase == "grow" and self.maintain(runs, snake.flts[:, T]):
+            self.normalise()
+            runs = self.runs(xy)
+        v = self.speeds(runs)
+        self.last_speed = v
+        f = snake.flts
+        adv = v * cfg.dt
+        pos_old = f[:, POS].copy()
+        f[:, POS] += adv
+        if self.phase == "grow":
+            f[:, T] += adv
+        arrived = np.flatnonzero(f[:, POS] >= f[:, ELEN])
+        if len(arrived):
+            when = (f[arrived, ELEN] - pos_old[arrived]) / v[arrived]
+            order = arrived[np.lexsort((arrived, when))]
+            events = [(int(snake.ints[i, U]), int(snake.ints[i, V]), float(f[i, POS] - f[i, ELEN]))
+                      for i in order]
+            for u, w, carry in events:     # per topology event (~2 per step)
+                if snake.state[w] != UNVISITED:
+                    continue              # already entered this step: this snaxel merged there
+                p = snake.find(u, w)
+                if p >= 0:
+                    snake.birth(p, carry)
+            self.normalise()
+        self.stats.steps += 1
+        if self.phase == "sketch":
+            self._sketch_control()
+        else:
+            self._cluster_control()
+        if self.stats.steps >= cfg.max_steps:
+            self.done = True
+        if self.done:
+            self.snapshot()
+        return True
+
+    # -- control ----------------------------------------------------------------------------
+    def _sketch_control(self) -> None:
+        """Phase 1 ends when no snaxel heads into an unvisited marked vertex (A21)."""
+        self.stats.sketch_steps += 1
+        dest = self.snake.ints[:, V]
+        if np.any(self.marked[dest] & ~self.snake.blocked[dest]):
+            return
+        self.phase = "grow"
+        whole = self._new_curve(cluster=0)
+        self.snake.ints[:, CURVE] = whole
+        self.snake.flts[:, T] = 0.0
+        self.cluster_start = self.stats.steps
+        self.best_step = self.stats.steps
+
+    def _cluster_control(self) -> None:
+        cfg = self.cfg
+        steps = self.stats.steps
+        curve = self.snake.ints[:, CURVE]
+        act = self.cluster_of[curve] == self.active
+        reason = None
+        if not act.any():
+            reason = "vanished"
+        else:
+            tmax = float(self.snake.flts[act, T].max())
+            if tmax >= self.g:
+                reason = "reached"
+            elif tmax >= self.best_t + cfg.guard_delta:
+                self.best_t, self.best_step = tmax, steps
+            elif steps - self.best_step > cfg.guard_steps:
+                reason = "no progress"
+            if reason is None and steps - self.cluster_start > cfg.cluster_max_steps:
+                reason = "step cap"
+        if reason is None:
+            return
+        self.stats.clusters_grown += 1
+        if reason != "reached":
+            self.stats.clusters_stalled += 1
+        self.stats.cluster_log.append({"cluster": self.active, "end": reason, "steps": steps - self.cluster_start,
+                                       "g": round(self.g, 3)})
+        if self.stats.clusters_grown >= cfg.n_c:
+            self.done = True
+            return
+        self._next_cluster()
+
+    def _next_cluster(self) -> None:
+        """A15/A17: seed from a random curve of the cluster just stopped with >= 3 snaxels,
+        length >= c_min and not parked at the margin; else any such curve; else finish."""
+        cfg = self.cfg
+        snake = self.snake
+        runs = self.runs()
+        dest_free = ~snake.blocked[snake.ints[:, V]]
+        free_count = np.bincount(runs.rid, dest_free, minlength=len(runs.starts))
+        ok = (runs.count >= 3) & (runs.length >= cfg.c_min) & (free_count >= 3)
+        cand = np.flatnonzero(ok & (self.cluster_of[runs.curve] == self.active))
+        if len(cand) == 0:
+            cand = np.flatnonzero(ok)
+        if len(cand) == 0:
+            self.done = True
+            return
+        r = int(cand[int(self.rng_cluster.integers(len(cand)))])
+        self.active += 1
+        cid = int(runs.curve[r])
+        self.cluster_of[cid] = self.active
+        t0 = float(self.rng_cluster.uniform(cfg.t_min, cfg.t_max))
+        s0 = int(runs.starts[r])
+        snake.flts[s0:s0 + int(runs.count[r]), T] = t0
+        self.g = float(self.rng_cluster.uniform(cfg.g_min, cfg.g_max))
+        self.cluster_start = self.stats.steps
+        self.best_t, self.best_step = t0, self.stats.steps
+
+    # -- outputs ----------------------------------------------------------------------------
+    def snapshot(self) -> None:
+        if self.snapshots and self.snapshots[-1].step == self.stats.steps:
+            return
+        c = self.snake.ints[:, CURVE].copy()
+        self.snapshots.append(Snapshot(self.stats.steps, self.snake.xy(), c, self.cluster_of[c].copy()))
+
+    def run(self) -> "CloudGrowth":
+        while self.step():
+            pass
+        return self
+
+    def report(self) -> dict:
+        xy = self.snake.xy()
+        runs = self.runs(xy)
+        s = self.snake
+        return {
+            "N_s": len(s), "N_v": int(self.topo.n_vertices), "steps": self.stats.steps,
+            "births": s.births, "merges": s.merges, "holes": s.holes, "filled_vertices": s.filled,
+            "hole_rule_disagreements": s.hole_rule_disagreements,
+            "splits": self.stats.splits, "curve_merges": self.stats.curve_merges,
+            "curves": int(len(runs.starts)), "clusters_grown": self.stats.clusters_grown,
+            "clusters_stalled": self.stats.clusters_stalled, "sketch_steps": self.stats.sketch_steps,
+            "area": Snake.signed_area(xy), "perimeter": runs.perimeter,
+            "bbox": [float(xy[:, 0].min()), float(xy[:, 1].min()), float(xy[:, 0].max()), float(xy[:, 1].max())],
+        }
