@@ -27,8 +27,8 @@ def check_field_name(name: str) -> None:
 class FieldSpec:
     """One field a rule touches.
 
-    ``domain`` may contain ``{param}`` placeholders that are filled from the rule's parameters,
-    so a rule can act on a domain the recipe names.
+    ``domain`` (and ``name``) may contain ``{param}`` placeholders filled from the rule's
+    parameters, so a rule can act on a domain or field the recipe names.
     """
 
     name: str
@@ -40,7 +40,8 @@ class FieldSpec:
     doc: str = ""
 
     def __post_init__(self) -> None:
-        check_field_name(self.name)
+        if "{" not in self.name:
+            check_field_name(self.name)
         if self.at not in LOCATIONS:
             raise ValueError(f"field {self.name!r}: location {self.at!r} not in {LOCATIONS}")
         if self.intent not in INTENTS:
@@ -48,9 +49,9 @@ class FieldSpec:
 
     def resolve(self, params: dict[str, object]) -> "FieldSpec":
         """Return a copy whose domain placeholders are filled from ``params``."""
-        if "{" not in self.domain:
+        if "{" not in self.domain and "{" not in self.name:
             return self
-        return FieldSpec(self.name, self.domain.format(**params), self.at, self.intent,
+        return FieldSpec(self.name.format(**params), self.domain.format(**params), self.at, self.intent,
                          self.dtype, self.units, self.doc)
 
 

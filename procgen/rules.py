@@ -42,6 +42,9 @@ class RuleBase:
     creates: ClassVar[dict[str, str]] = {}
     passes_fields: ClassVar[dict[str, str]] = {}
     default_iterations: ClassVar[int] = 1
+    #: A tiny recipe (list of [[steps]] tables) whose LAST step uses this rule; the contract
+    #: suite (procgen.testing) runs it. Needed when the rule reads domains others create.
+    example: ClassVar[tuple[dict[str, Any], ...]] = ()
 
     # -- the protocol ---------------------------------------------------------------------
     def setup(self, state: "State") -> None:

@@ -1,0 +1,1 @@
+"""Generic rules every family needs (sampling, meshing, noise, smoothing), registered like plugins."""

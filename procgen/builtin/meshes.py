@@ -1,0 +1,232 @@
+"""Mesh generators and converters: Delaunay, file loading, primitives, boundary loops."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..data import meshes_dir
+from ..domains import PointSet, Polylines, TriMesh
+from ..errors import InputError
+from ..fields import FieldSpec
+from ..params import param
+from ..rules import RuleBase
+from ..state import State
+
+
+@dataclass(kw_only=True)
+class DelaunayTessellation(RuleBase):
+    """Converter: the Delaunay triangulation (scipy/Qhull) of a 2-D PointSet as a TriMesh.
+
+    Triangles are stored counter-clockwise; point fields become vertex fields.
+    """
+
+    example: ClassVar[tuple[dict, ...]] = ({"rule": "points.poisson_disk", "params": {"radius": 0.08}}, {"rule": "mesh.delaunay"})
+    name: ClassVar[str] = "mesh.delaunay"
+    uses: ClassVar[dict[str, str]] = {"{points}": "PointSet"}
+    creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+    passes_fields: ClassVar[dict[str, str]] = {"{mesh}": "{points}"}
+
+    points: str = param("points", doc="PointSet to triangulate")
+    mesh: str = param("tessellation", doc="name of the TriMesh to create")
+
+    def step(self, state: State) -> bool:
+        from scipy.spatial import Delaunay, QhullError
+
+        ps = state.get(self.points, PointSet)
+        pts = ps.points[:, :2]
+        if len(pts) < 3:
+            raise InputError(f"mesh.delaunay: need at least 3 points, {self.points!r} has {len(pts)}")
+        try:
+            tri = Delaunay(pts)
+        except QhullError as exc:
+            raise InputError(f"mesh.delaunay: points are degenerate ({str(exc).splitlines()[0]})") from None
+        faces = tri.simplices.astype(np.int64)
+        a, b, c = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
+        cw = ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) < 0
+        faces[cw] = faces[cw][:, [0, 2, 1]]
+        mesh = TriMesh(pts, faces)
+        mesh.copy_fields_from(ps, {"point": "vertex"})
+        state.add_domain(self.mesh, mesh)
+        state.report(f"{self.mesh}.n_vertices", mesh.n_vertices)
+        state.report(f"{self.mesh}.n_faces", mesh.n_faces)
+        return True
+
+
+def resolve_mesh_path(path: str, base_dir: Path | None) -> Path:
+    """Absolute path, path relative to the recipe's folder, or a name in procgen/data/meshes."""
+    p = Path(path).expanduser()
+    candidates = [p] if p.is_absolute() else ([base_dir / p] if base_dir else []) + [Path.cwd() / p, meshes_dir() / p]
+    for c in candidates:
+        if c.is_file():
+            return c
+    raise InputError(f"mesh.load: file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
+
+
+def load_mesh_file(path: Path) -> TriMesh:
+    """Read OBJ/PLY/STL/OFF/GLB with trimesh (quads and n-gons triangulated), as one TriMesh."""
+    import trimesh
+
+    try:
+        loaded: Any = trimesh.load(str(path), force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types for broken files
+        raise InputError(f"mesh.load: {path.name}: cannot read ({type(exc).__name__}: {exc})") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) < 3:
+        raise InputError(f"mesh.load: {path.name}: no triangles in the file")
+    faces = np.asarray(loaded.faces)
+    v = np.asarray(loaded.vertices, dtype=np.float64)
+    if not np.all(np.isfinite(v)):
+        raise InputError(f"mesh.load: {path.name}: vertices contain NaN or inf")
+    if faces.min() < 0 or faces.max() >= len(v):
+        raise InputError(f"mesh.load: {path.name}: faces reference missing vertices")
+    return TriMesh(v, faces)
+
+
+@dataclass(kw_only=True)
+class LoadMesh(RuleBase):
+    """Load a triangle mesh from OBJ/PLY/STL (trimesh): quads and n-gons are triangulated.
+
+    Duplicate vertices are merged and degenerate/duplicate faces dropped when ``clean`` is on,
+    because scanned and exported meshes often carry them and surface automata need a connected
+    edge graph. ``normalize`` scales the mesh into a unit box centred at the origin.
+    """
+
+    example: ClassVar[tuple[dict, ...]] = ({"rule": "mesh.load", "params": {"path": "spot.obj"}},)
+    name: ClassVar[str] = "mesh.load"
+    creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+
+    path: str = param(doc="mesh file: absolute, relative to the recipe, or a shipped name (spot.obj)")
+    mesh: str = param("mesh", doc="name of the TriMesh to create")
+    clean: bool = param(True, doc="merge duplicate vertices, drop degenerate and duplicate faces")
+    normalize: bool = param(False, doc="fit into a unit box centred at the origin")
+
+    def step(self, state: State) -> bool:
+        mesh = load_mesh_file(resolve_mesh_path(self.path, state.base_dir))
+        if self.clean:
+            mesh = clean_mesh(mesh)
+        if self.normalize:
+            v = mesh.vertices
+            lo, hi = v.min(axis=0), v.max(axis=0)
+            mesh = TriMesh((v - (lo + hi) / 2) / max(float((hi - lo).max()), 1e-12), mesh.faces)
+        state.add_domain(self.mesh, mesh)
+        state.report(f"{self.mesh}.n_faces", mesh.n_faces)
+        return True
+
+
+def clean_mesh(mesh: TriMesh) -> TriMesh:
+    """Merge coincident vertices, drop zero-area and duplicate faces, drop unused vertices."""
+    v = mesh.vertices
+    scale = max(float(np.ptp(v, axis=0).max()), 1e-12)
+    key = np.round(v / (scale * 1e-9)).astype(np.int64)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    faces = inverse.ravel()[mesh.faces]
+    ok = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
+    faces = faces[ok]
+    _, uniq = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
+    faces = faces[np.sort(uniq)]
+    tmp = TriMesh(v[first], faces)
+    faces = faces[tmp.face_areas > 1e-14 * scale * scale]
+    if len(faces) == 0:
+        raise InputError("mesh.load: every face is degenerate")
+    used = np.unique(faces)
+    remap = np.full(len(first), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    return TriMesh(v[first][used], remap[faces])
+
+
+@dataclass(kw_only=True)
+class MeshPrimitive(RuleBase):
+    """A primitive mesh: icosphere, plane, cylinder, torus, cube or tetrahedron (unit size)."""
+
+    name: ClassVar[str] = "mesh.primitive"
+    creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+
+    mesh: str = param("mesh", doc="name of the TriMesh to create")
+    shape: str = param("icosphere", choices=("icosphere", "plane", "cylinder", "torus", "cube", "tetrahedron"),
+                       doc="which primitive")
+    size: float = param(1.0, gt=0.0, units="length", doc="radius (sphere, cylinder, torus) or edge length")
+    subdivisions: int = param(3, ge=0, le=7, doc="icosphere subdivisions / plane and cube cells per side")
+    sections: int = param(32, ge=3, le=1024, doc="segments around (cylinder, torus)")
+    height: float = param(1.0, gt=0.0, units="length", doc="cylinder height")
+    minor_radius: float = param(0.3, gt=0.0, units="length", doc="torus tube radius")
+
+    def step(self, state: State) -> bool:
+        import trimesh
+
+        s = self.size
+        if self.shape == "icosphere":
+            tm = trimesh.creation.icosphere(subdivisions=self.subdivisions, radius=s)
+        elif self.shape == "cylinder":
+            tm = trimesh.creation.cylinder(radius=s, height=self.height, sections=self.sections)
+        elif self.shape == "torus":
+            tm = trimesh.creation.torus(major_radius=s, minor_radius=self.minor_radius,
+                                        major_sections=self.sections, minor_sections=max(8, self.sections // 2))
+        elif self.shape == "tetrahedron":
+            v = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float) * s / np.sqrt(8)
+            f = np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]])
+            tm = trimesh.Trimesh(v, f, process=False)
+        elif self.shape == "plane":
+            n = max(1, 2 ** self.subdivisions)
+            xs = np.linspace(-s / 2, s / 2, n + 1)
+            xx, yy = np.meshgrid(xs, xs)
+            from .grids import grid_faces
+
+            tm = trimesh.Trimesh(np.column_stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)]),
+                                 grid_faces(n + 1, n + 1), process=False)
+        else:
+            tm = trimesh.creation.box(extents=(s, s, s))
+            if self.subdivisions > 0:
+                v, f = np.asarray(tm.vertices), np.asarray(tm.faces)
+                for _ in range(self.subdivisions):
+                    v, f = trimesh.remesh.subdivide(v, f)
+                tm = trimesh.Trimesh(v, f, process=False)
+        state.add_domain(self.mesh, TriMesh.from_trimesh(tm))
+        return True
+
+
+@dataclass(kw_only=True)
+class MeshBoundary(RuleBase):
+    """Converter: the boundary loops of a TriMesh as closed Polylines (outer loop counter-clockwise)."""
+
+    example: ClassVar[tuple[dict, ...]] = ({"rule": "points.poisson_disk", "params": {"radius": 0.08}}, {"rule": "mesh.delaunay"},
+                                             {"rule": "mesh.boundary"})
+    name: ClassVar[str] = "mesh.boundary"
+    uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+    creates: ClassVar[dict[str, str]] = {"{lines}": "Polylines"}
+
+    mesh: str = param("tessellation", doc="TriMesh whose boundary to trace")
+    lines: str = param("outline", doc="name of the Polylines to create")
+
+    def step(self, state: State) -> bool:
+        m = state.get(self.mesh, TriMesh)
+        loops = boundary_loops(m)
+        if not loops:
+            raise InputError(f"mesh.boundary: mesh {self.mesh!r} is closed (no boundary edges)")
+        state.add_domain(self.lines, Polylines.from_list([m.vertices[l] for l in loops], closed=True))
+        return True
+
+
+def boundary_loops(m: TriMesh) -> list[np.ndarray]:
+    """Vertex index loops along boundary edges, oriented as the faces that own them.
+
+    Walking a successor map is inherently sequential; it runs once per conversion, not per step.
+    """
+    fe = m.face_edges
+    on_boundary = m.is_boundary_edge[fe]
+    a = m.faces[on_boundary]
+    b = np.roll(m.faces, -1, axis=1)[on_boundary]
+    nxt = dict(zip(a.tolist(), b.tolist()))
+    loops, seen = [], set()
+    for start in sorted(nxt):
+        if start in seen:
+            continue
+        loop, v = [], start
+        while v not in seen and v in nxt:
+            seen.add(v)
+            loop.append(v)
+            v = nxt[v]
+        if len(loop) >= 3:
+            loops.append(np.array(loop))
+    return loops

@@ -1,0 +1,206 @@
+"""The ``procgen`` command: a thin layer over the library (every command is an API call)."""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import textwrap
+from pathlib import Path
+from typing import Sequence
+
+from .errors import ProcgenError
+
+EPILOG = """\
+examples:
+  procgen gallery                                   render every built-in gallery entry
+  procgen run demo/basics --out out/basics          run a built-in recipe, write its files
+  procgen run my.toml --seed 3 --set steps.1.params.radius=0.01
+  procgen check my.toml                             validate a recipe without running it
+  procgen rules list                                every registered rule
+  procgen rules show points.poisson_disk            parameters, ranges, units, fields
+  procgen recipes list                              built-in and plugin recipes
+  procgen plugins                                   loaded plugins, and why a broken one failed
+"""
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    p = argparse.ArgumentParser(
+        prog="procgen", formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
+        description="Grow natural-looking content from simple local rules: snaxel clouds (SVG), "
+                    "eroded multi-layer surfaces (heightmaps), cellular automata on meshes (OBJ/GLB).")
+    p.add_argument("--version", action="version", version=f"procgen {__version__}")
+    p.add_argument("--debug", action="store_true", help="show full tracebacks on errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    def cmd(name: str, help_: str, example: str) -> argparse.ArgumentParser:
+        sp = sub.add_parser(name, help=f"{help_}  (e.g. {example})", description=help_,
+                            epilog=f"example:\n  {example}", formatter_class=argparse.RawDescriptionHelpFormatter)
+        sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+        return sp
+
+    r = cmd("run", "Run a recipe and write its outputs plus run.json.",
+            "procgen run demo/basics --seed 3 --out out/basics")
+    r.add_argument("recipe", help="recipe file (.toml) or built-in name such as demo/basics")
+    r.add_argument("--seed", type=int, help="override the recipe's seed")
+    r.add_argument("--out", type=Path, help="output folder (default: out/<recipe name>)")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a recipe value, e.g. steps.1.params.radius=0.01 (repeatable)")
+    r.add_argument("--state", action="store_true", help="also write state.npz (every field)")
+    r.add_argument("--progress", choices=("auto", "on", "off"), default="auto", help="progress bars")
+
+    c = cmd("check", "Validate a recipe (names, types, ranges, data flow) without running it.",
+            "procgen check rules/demo/basics.toml --set steps.0.params.radius=0.1")
+    c.add_argument("recipe")
+    c.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+
+    ru = cmd("rules", "List registered rules or show one rule's parameters.", "procgen rules show mesh.delaunay")
+    ru_sub = ru.add_subparsers(dest="rules_cmd", metavar="list|show")
+    ru_sub.add_parser("list", help="every rule with its one-line summary")
+    show = ru_sub.add_parser("show", help="one rule's parameters, ranges, units and fields")
+    show.add_argument("name")
+
+    rc = cmd("recipes", "List built-in and plugin recipes.", "procgen recipes list")
+    rc_sub = rc.add_subparsers(dest="recipes_cmd", metavar="list")
+    rc_sub.add_parser("list", help="every recipe name")
+
+    cmd("plugins", "List plugins, their rules, and the reason a broken plugin failed.", "procgen plugins")
+    cmd("exporters", "List output formats and the domains they write.", "procgen exporters")
+
+    g = cmd("gallery", "Render every gallery entry (parallel, resumable) and write index.html.",
+            "procgen gallery --quick --jobs 2 --only clouds/*")
+    g.add_argument("--only", action="append", default=[], metavar="PATTERN",
+                   help="glob on recipe names or titles (repeatable)")
+    g.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 1)), help="parallel processes")
+    g.add_argument("--quick", action="store_true", help="small sizes for a fast check (CI)")
+    g.add_argument("--out", type=Path, default=None, help="output folder (default gallery/out)")
+    g.add_argument("--force", action="store_true", help="re-render entries that are up to date")
+    g.add_argument("--list", action="store_true", help="list the entries and exit")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    try:
+        return _dispatch(args, parser)
+    except ProcgenError as exc:
+        if args.debug:
+            raise
+        print(f"procgen: error: {_one_line(str(exc))}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("procgen: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a bug, not bad input: still one line unless --debug
+        if args.debug:
+            raise
+        print(f"procgen: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
+              "(run again with --debug for the traceback)", file=sys.stderr)
+        return 3
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from .plugins import get_plugin_manager
+
+    host = get_plugin_manager()
+    if args.command in ("run", "check"):
+        from .recipes import load_recipe
+
+        recipe = load_recipe(args.recipe, host, args.set)
+        if args.command == "check":
+            print(f"{recipe.source}: ok ({len(recipe.steps)} steps, {len(recipe.outputs)} outputs)")
+            return 0
+        from .runner import run
+
+        out = args.out or Path("out") / recipe.name
+        progress = {"auto": None, "on": True, "off": False}[args.progress]
+        result = run(recipe, host, seed=args.seed, out_dir=out, progress=progress, save_state=args.state)
+        print(f"wrote {len(result.files)} files to {out}/")
+        for f in sorted(result.files):
+            print(f"  {out / f}")
+        for key, value in sorted(result.state.reports.items()):
+            print(f"  {key} = {value}")
+        return 0
+    if args.command == "rules":
+        if args.rules_cmd == "show":
+            print(describe_rule(host.rule(args.name)))
+            return 0
+        width = max((len(n) for n in host.rules), default=10)
+        for name, cls in host.rules.items():
+            print(f"{name:<{width}}  {cls.summary()}")
+        return 0
+    if args.command == "recipes":
+        from .recipes import list_recipes
+
+        for name, path in list_recipes(host).items():
+            print(name)
+        return 0
+    if args.command == "plugins":
+        for s in host.statuses:
+            host.rules  # noqa: B018 - loading rules may mark more plugins broken
+        for s in host.statuses:
+            state = "ok" if s.ok else "BROKEN"
+            dist = f" [{s.distribution} {s.version}]" if s.distribution else ""
+            print(f"{s.name:<12} {state:<6} {s.target}{dist}")
+            if s.error:
+                print(f"{'':<12} reason: {_one_line(s.error)}")
+            elif s.rules:
+                print(textwrap.fill(", ".join(s.rules), 96, initial_indent=" " * 13, subsequent_indent=" " * 13))
+        return 0
+    if args.command == "exporters":
+        for name, e in host.exporters.items():
+            print(f"{name:<16} {'/'.join(e.kinds):<20} {e.doc}")
+        return 0
+    if args.command == "gallery":
+        from .gallery import build_gallery, load_gallery
+
+        if args.list:
+            for e in load_gallery(host, args.only):
+                print(f"{e.slug:<40} {e.figure:<16} {e.title}")
+            return 0
+        report = build_gallery(host, only=args.only, jobs=args.jobs, quick=args.quick, out_dir=args.out,
+                               force=args.force)
+        print(report.summary())
+        return 1 if report.failed else 0
+    parser.error(f"unknown command {args.command}")
+    return 2
+
+
+def describe_rule(cls: type) -> str:
+    """The text of ``procgen rules show``: summary, parameters table, fields, domains."""
+    import dataclasses
+
+    lines = [f"{cls.name}  ({cls.__module__}.{cls.__name__})", ""]
+    lines += [textwrap.indent(textwrap.dedent(cls.__doc__ or "").strip(), "  "), ""]
+    rows = [("parameter", "type", "default", "range", "units", "doc")]
+    for p in cls.parameters():
+        default = "(required)" if p.required else repr(p.default)
+        rows.append((p.name, p.type, default, p.info.range_text(), p.info.units, p.info.doc))
+    widths = [min(max(len(str(r[i])) for r in rows), 28) for i in range(5)]
+    for r in rows:
+        lines.append("  " + "  ".join(f"{str(r[i])[:28]:<{widths[i]}}" for i in range(5)) + "  " + r[5])
+    specs = list(cls.fields)
+    if specs:
+        lines += ["", "  fields:"]
+        for s in specs:
+            lines.append(f"    {s.intent:<5} {s.name} on {s.domain}.{s.at} [{s.units}] {s.doc}")
+    if cls.uses:
+        lines.append("  uses:    " + ", ".join(f"{k} ({v})" for k, v in cls.uses.items()))
+    if cls.creates:
+        lines.append("  creates: " + ", ".join(f"{k} ({v})" for k, v in cls.creates.items()))
+    lines.append(f"  default iterations: {cls.default_iterations}")
+    del dataclasses
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

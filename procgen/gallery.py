@@ -1,0 +1,264 @@
+"""The gallery: every entry of gallery/gallery.toml rendered in parallel, resumably, into index.html.
+
+Each entry+seed renders into a temporary folder that is renamed into place only when complete,
+with a ``.procgen-done.json`` stamp holding a provenance hash (recipe after overrides, seed,
+package versions, quick flag). A re-run skips entries whose stamp matches, so an interrupted
+run (Ctrl-C, kill -9) resumes without redoing finished work.
+"""
+from __future__ import annotations
+
+import fnmatch
+import hashlib
+import html
+import json
+import os
+import shutil
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from .data import gallery_dir
+from .errors import ProcgenError, RecipeError
+from .exchange import write
+from .recipes import parse_toml
+
+if TYPE_CHECKING:
+    from .plugins import PluginHost
+
+STAMP = ".procgen-done.json"
+ENTRY_KEYS = ("recipe", "seeds", "title", "figure", "caption", "quick", "set", "id")
+
+
+@dataclass
+class Entry:
+    recipe: str
+    seeds: list[int]
+    title: str
+    figure: str = ""
+    caption: str = ""
+    quick: dict[str, Any] = field(default_factory=dict)
+    set: dict[str, Any] = field(default_factory=dict)
+    slug: str = ""
+    source: str = ""
+
+
+@dataclass
+class JobResult:
+    slug: str
+    seed: int
+    status: str  # "done", "skipped", "failed"
+    seconds: float = 0.0
+    error: str = ""
+    files: list[str] = field(default_factory=list)
+    reports: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class GalleryReport:
+    out_dir: Path
+    results: list[JobResult]
+    seconds: float
+
+    @property
+    def failed(self) -> list[JobResult]:
+        return [r for r in self.results if r.status == "failed"]
+
+    def summary(self) -> str:
+        done = sum(r.status == "done" for r in self.results)
+        skipped = sum(r.status == "skipped" for r in self.results)
+        lines = [f"gallery: {done} rendered, {skipped} up to date, {len(self.failed)} failed "
+                 f"in {self.seconds:.1f} s -> {self.out_dir / 'index.html'}"]
+        for r in self.failed:
+            lines.append(f"  FAILED {r.slug} seed {r.seed}: {r.error}")
+        return "\n".join(lines)
+
+
+def _entry_from(raw: Any, where: str, index: int) -> Entry:
+    if not isinstance(raw, dict):
+        raise RecipeError(f"{where}: each [[entry]] must be a table")
+    for k in raw:
+        if k not in ENTRY_KEYS:
+            from .params import did_you_mean
+
+            raise RecipeError(f"{where}: unknown key {k!r}{did_you_mean(k, ENTRY_KEYS)}")
+    if not isinstance(raw.get("recipe"), str):
+        raise RecipeError(f"{where}: missing 'recipe' (a recipe name such as 'clouds/fig3_22')")
+    seeds = raw.get("seeds", [1])
+    if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) and s >= 0 for s in seeds):
+        raise RecipeError(f"{where}: seeds must be a list of non-negative integers")
+    for key in ("quick", "set"):
+        if not isinstance(raw.get(key, {}), dict):
+            raise RecipeError(f"{where}: {key} must be a table of KEY = VALUE overrides")
+    slug = raw.get("id") or raw["recipe"].replace("/", "-")
+    return Entry(raw["recipe"], list(seeds), str(raw.get("title", raw["recipe"])), str(raw.get("figure", "")),
+                 str(raw.get("caption", "")), dict(raw.get("quick", {})), dict(raw.get("set", {})), slug, where)
+
+
+def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path | None = None) -> list[Entry]:
+    """Entries of gallery.toml and the files it includes, filtered by ``only`` globs."""
+    main = path or gallery_dir() / "gallery.toml"
+    data = parse_toml(main.read_text(encoding="utf-8"), str(main))
+    files = [(main, data)]
+    for inc in data.get("gallery", {}).get("include", []):
+        p = main.parent / inc
+        if p.is_file():
+            files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
+    entries: list[Entry] = []
+    seen: set[str] = set()
+    for p, d in files:
+        for i, raw in enumerate(d.get("entry", [])):
+            e = _entry_from(raw, f"{p.name}: entry[{i}]", i)
+            if e.slug in seen:
+                raise RecipeError(f"{p.name}: entry[{i}]: id {e.slug!r} is used twice; give one an 'id'")
+            seen.add(e.slug)
+            entries.append(e)
+    if only:
+        entries = [e for e in entries if any(fnmatch.fnmatch(e.recipe, pat) or fnmatch.fnmatch(e.slug, pat)
+                                             or fnmatch.fnmatch(e.title, pat) for pat in only)]
+    return entries
+
+
+def overrides_for(entry: Entry, quick: bool) -> list[str]:
+    items = dict(entry.set)
+    if quick:
+        items.update(entry.quick)
+    return [f"{k}={json.dumps(v) if isinstance(v, str) else _toml_value(v)}" for k, v in items.items()]
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, str):
+        return json.dumps(v)
+    return repr(v)
+
+
+def job_hash(recipe_data: dict[str, Any], seed: int, versions: dict[str, str], quick: bool) -> str:
+    blob = json.dumps({"recipe": recipe_data, "seed": seed, "versions": versions, "quick": quick},
+                      sort_keys=True, default=str).encode()
+    return hashlib.sha256(blob).hexdigest()
+
+
+def _render_job(entry: Entry, seed: int, out_root: str, quick: bool, force: bool) -> JobResult:
+    """Worker: render one entry+seed into its folder (atomically), or skip it if up to date."""
+    from .plugins import get_plugin_manager
+    from .recipes import load_recipe
+    from .runner import run
+
+    t0 = time.perf_counter()
+    final = Path(out_root) / entry.slug / f"seed-{seed}"
+    try:
+        host = get_plugin_manager()
+        recipe = load_recipe(entry.recipe, host, overrides_for(entry, quick))
+        h = job_hash(recipe.data, seed, host.versions(), quick)
+        stamp = final / STAMP
+        if not force and stamp.is_file():
+            try:
+                old = json.loads(stamp.read_text())
+                if old.get("hash") == h:
+                    return JobResult(entry.slug, seed, "skipped", 0.0, files=old.get("files", []),
+                                     reports=old.get("reports", {}))
+            except (OSError, ValueError):
+                pass
+        tmp = final.parent / f".tmp-seed-{seed}-{os.getpid()}"
+        shutil.rmtree(tmp, ignore_errors=True)
+        result = run(recipe, host, seed=seed, out_dir=tmp, progress=False)
+        secs = time.perf_counter() - t0
+        info = {"hash": h, "recipe": entry.recipe, "seed": seed, "seconds": round(secs, 3),
+                "files": sorted(result.files), "reports": result.state.reports}
+        write(tmp / STAMP, json.dumps(info, indent=2, sort_keys=True, default=str))
+        if final.exists():
+            shutil.rmtree(final)
+        os.replace(tmp, final)
+        return JobResult(entry.slug, seed, "done", secs, files=sorted(result.files), reports=result.state.reports)
+    except ProcgenError as exc:
+        return JobResult(entry.slug, seed, "failed", time.perf_counter() - t0, error=" ".join(str(exc).split()))
+    except Exception as exc:  # one broken entry must not stop the others
+        tb = traceback.extract_tb(exc.__traceback__)[-1]
+        return JobResult(entry.slug, seed, "failed", time.perf_counter() - t0,
+                         error=f"{type(exc).__name__}: {exc} (at {Path(tb.filename).name}:{tb.lineno})")
+
+
+def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: int = 1, quick: bool = False,
+                  out_dir: Path | None = None, force: bool = False, progress: bool | None = None) -> GalleryReport:
+    """Render all (filtered) entries with ``jobs`` processes, then write index.html."""
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    out = Path(out_dir) if out_dir else Path("gallery") / "out"
+    out.mkdir(parents=True, exist_ok=True)
+    entries = load_gallery(host, only)
+    jobs_list = [(e, s) for e in entries for s in e.seeds]
+    show = sys.stderr.isatty() if progress is None else progress
+    results: list[JobResult] = []
+    bar = tqdm(total=len(jobs_list), desc="gallery", unit="entry", disable=not show, file=sys.stderr)
+    if jobs <= 1:
+        for e, s in jobs_list:
+            results.append(_render_job(e, s, str(out), quick, force))
+            bar.update(1)
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futs = [pool.submit(_render_job, e, s, str(out), quick, force) for e, s in jobs_list]
+            for fut in as_completed(futs):
+                results.append(fut.result())
+                bar.update(1)
+    bar.close()
+    order = {(e.slug, s): i for i, (e, s) in enumerate(jobs_list)}
+    results.sort(key=lambda r: order[(r.slug, r.seed)])
+    write_index(out, entries, results, quick)
+    return GalleryReport(out, results, time.perf_counter() - t0)
+
+
+def _thumbs(files: list[str]) -> list[str]:
+    pics = [f for f in files if f.endswith((".svg", ".png")) and not f.startswith("frames/")
+            and not f.endswith("_texture.png")]
+    previews = [f for f in pics if "preview" in f]
+    return (previews + [f for f in pics if f not in previews])[:4]
+
+
+def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick: bool) -> None:
+    """The contact sheet: a card per entry+seed with thumbnails, figure, caption and links."""
+    by = {(r.slug, r.seed): r for r in results}
+    cards = []
+    for e in entries:
+        for s in e.seeds:
+            r = by.get((e.slug, s))
+            if r is None:
+                continue
+            base = f"{e.slug}/seed-{s}"
+            if r.status == "failed":
+                body = f'<p class="err">failed: {html.escape(r.error)}</p>'
+            else:
+                imgs = "".join(f'<a href="{base}/{html.escape(f)}"><img loading="lazy" src="{base}/{html.escape(f)}" '
+                               f'alt="{html.escape(f)}"></a>' for f in _thumbs(r.files))
+                links = " ".join(f'<a href="{base}/{html.escape(f)}">{html.escape(f)}</a>'
+                                 for f in r.files if not f.startswith("frames/"))
+                rep = ", ".join(f"{k}={v}" for k, v in sorted(r.reports.items()))
+                body = f'<div class="thumbs">{imgs}</div><p class="files">{links}</p>' + \
+                       (f'<p class="rep">{html.escape(rep)}</p>' if rep else "")
+            cards.append(f'<div class="card"><h2>{html.escape(e.title)}</h2>'
+                         f'<p class="fig">{html.escape(e.figure)} &middot; recipe <code>{html.escape(e.recipe)}</code>'
+                         f' &middot; seed {s}</p><p>{html.escape(e.caption)}</p>{body}</div>')
+    page = f"""<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>procgen gallery</title>
+<style>
+body {{ font-family: sans-serif; margin: 1.5em; background: #f4f4f2; color: #222; }}
+.grid {{ display: grid; grid-template-columns: repeat(auto-fill, minmax(420px, 1fr)); gap: 1em; }}
+.card {{ background: white; padding: .8em; border-radius: 6px; box-shadow: 0 1px 3px #0002; }}
+.card h2 {{ font-size: 1.05em; margin: 0 0 .2em; }}
+.thumbs img {{ max-width: 48%; max-height: 220px; margin: 1px; background: #ddd; }}
+.fig, .files, .rep {{ font-size: .8em; color: #555; }}
+.err {{ color: #a00; }}
+</style></head><body>
+<h1>procgen gallery{' (quick)' if quick else ''}</h1>
+<div class="grid">
+{chr(10).join(cards)}
+</div></body></html>
+"""
+    write(out / "index.html", page)
