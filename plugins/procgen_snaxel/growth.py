@@ -167,32 +167,49 @@ class CloudGrowth:
 
     # -- curve maintenance (active cluster only, A13) ------------------------------------------
     def maintain(self, runs: Runs, t: np.ndarray) -> bool:
-        cfg = self.cfg
+        """Split active curves longer than their table limit, then merge active curves shorter
+        than c_min into a random same-cluster neighbour, until no short curve can merge."""
+        changed = self._split_long(runs, t)
+        merged_any = True
+        while merged_any and len(runs.starts) > 1:
+            if changed:
+                self.normalise()
+                runs = self.runs()
+            merged_any = self._merge_short(runs)
+            changed |= merged_any
+        if changed:      # a merge can push a curve over its limit: split once more (no new shorts)
+            self.normalise()
+            self._split_long(self.runs(), self.snake.flts[:, T])
+        return changed
+
+    def _split_long(self, runs: Runs, t: np.ndarray) -> bool:
         active = self.cluster_of[runs.curve] == self.active
-        tmax = np.maximum.reduceat(t, runs.starts)
-        limit = self.limits.limit(tmax)
+        limit = self.limits.limit(np.maximum.reduceat(t, runs.starts))
         changed = False
-        too_long = np.flatnonzero(active & (runs.length > limit) & (runs.count >= 4))
-        for r in too_long:      # per split event (a handful per step at most)
+        for r in np.flatnonzero(active & (runs.length > limit) & (runs.count >= 4)):   # per split event
             s0 = int(runs.starts[r])
             changed |= self._split(s0, s0 + int(runs.count[r]), runs.arc)
-        if len(runs.starts) > 1:
-            short = np.flatnonzero(active & (runs.length < cfg.c_min))
-            if len(short):
-                c = self.snake.ints[:, CURVE]
-                n = len(c)
-                for r in short:     # per merge event; A12: a random neighbour of the same cluster
-                    s0 = int(runs.starts[r])
-                    e0 = s0 + int(runs.count[r])
-                    own = int(c[s0])
-                    nbrs = [int(c[(s0 - 1) % n]), int(c[e0 % n])]
-                    nbrs = [x for x in nbrs if x != own and self.cluster_of[x] == self.active]
-                    if nbrs:
-                        pick = nbrs[int(self.rng_split.integers(len(nbrs)))]
-                        c[s0:e0] = pick
-                        self.stats.curve_merges += 1
-                        changed = True
         return changed
+
+    def _merge_short(self, runs: Runs) -> bool:
+        """One pass of curve merges (A12: random neighbour of the same, active cluster)."""
+        active = self.cluster_of[runs.curve] == self.active
+        short = np.flatnonzero(active & (runs.length < self.cfg.c_min))
+        c = self.snake.ints[:, CURVE]
+        n = len(c)
+        merged = False
+        for r in short:     # per merge event (rare)
+            s0 = int(runs.starts[r])
+            e0 = s0 + int(runs.count[r])
+            own = int(c[s0])
+            nbrs = [int(c[(s0 - 1) % n]), int(c[e0 % n])]
+            nbrs = [x for x in nbrs if x != own and self.cluster_of[x] == self.active]
+            if nbrs:
+                pick = nbrs[int(self.rng_split.integers(len(nbrs)))]
+                c[s0:e0] = pick
+                self.stats.curve_merges += 1
+                merged = True
+        return merged
 
     def _split(self, s0: int, e0: int, arc: np.ndarray) -> bool:
         """Split the curve on chain[s0:e0] at random snaxels until every piece fits its limit."""
@@ -262,7 +279,7 @@ class CloudGrowth:
         runs = self.runs(xy)
         if self.phase == "grow" and self.maintain(runs, snake.flts[:, T]):
             self.normalise()
-            runs = self.runs(xy)
+            runs = self.runs()
         v = self.speeds(runs)
         self.last_speed = v
         f = snake.flts
@@ -352,6 +369,7 @@ class CloudGrowth:
         if len(cand) == 0:
             cand = np.flatnonzero(ok)
         if len(cand) == 0:
+            self.stats.cluster_log.append({"cluster": self.active + 1, "end": "no seed curve left"})
             self.done = True
             return
         r = int(cand[int(self.rng_cluster.integers(len(cand)))])
