@@ -263,7 +263,6 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
             raise RecipeError(f"{where}: {exc}") from None
         where = f"{source}: steps[{i}] ({rule_name})"
         params = _require_table(raw.get("params", {}), f"{where}: params")
-        _check_finite(params, f"{where}: params")
         rule = cls.from_params(params, where)
         until = raw.get("until")
         if until is not None and until != "stable":

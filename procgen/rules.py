@@ -91,7 +91,7 @@ class RuleBase:
 
     @classmethod
     def parameters(cls) -> list["ParamRow"]:
-        hints = typing.get_type_hints(cls)
+        hints = type_hints(cls)
         rows = []
         for f in dataclasses.fields(cls):
             default = f.default if f.default is not dataclasses.MISSING else (
@@ -106,7 +106,7 @@ class RuleBase:
         prefix = f"{where}: " if where else ""
         if not isinstance(params, dict):
             raise RecipeError(f"{prefix}'params' must be a table, got {type(params).__name__}")
-        hints = typing.get_type_hints(cls)
+        hints = type_hints(cls)
         known = {f.name: f for f in dataclasses.fields(cls)}
         clean: dict[str, Any] = {}
         for key, value in params.items():
@@ -141,6 +141,18 @@ class ParamRow:
     default: Any
     info: ParamInfo
     required: bool
+
+
+def type_hints(cls: type) -> dict[str, Any]:
+    """Resolved parameter annotations; unresolvable string annotations count as Any."""
+    try:
+        return typing.get_type_hints(cls)
+    except (NameError, TypeError):
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(cls):
+            out[f.name] = f.type if not isinstance(f.type, str) else {
+                "float": float, "int": int, "bool": bool, "str": str}.get(f.type, Any)
+        return out
 
 
 def check_rule_class(cls: Any) -> None:

@@ -24,7 +24,7 @@ from .errors import ProcgenError, RecipeError
 from .params import param_info
 from .plugins import PluginHost, get_plugin_manager
 from .recipes import check_recipe
-from .rules import RuleBase
+from .rules import RuleBase, type_hints
 from .runner import run
 from .state import State
 
@@ -88,7 +88,7 @@ def check_rule_contract(cls: type[RuleBase], host: PluginHost | None = None) -> 
     name = cls.name
     assert dataclasses.is_dataclass(cls), f"{name}: must be a dataclass"
     assert cls.summary(), f"{name}: needs a docstring (its first line is the summary)"
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     for f in dataclasses.fields(cls):
         assert f.kw_only, f"{name}: parameter {f.name} must be keyword-only"
         assert param_info(f).doc, f"{name}: parameter {f.name} needs doc= in param()"

@@ -17,7 +17,7 @@ def png_bytes(array: np.ndarray, provenance: dict[str, Any] | None = None) -> by
     """Encode uint8 (h, w[, 3|4]) or uint16 (h, w) as PNG with provenance in a text chunk."""
     arr = np.ascontiguousarray(array)
     if arr.dtype == np.uint16:
-        img = Image.fromarray(arr.astype("<u2"), mode="I;16") if arr.ndim == 2 else None
+        img = Image.fromarray(arr.astype("<u2")) if arr.ndim == 2 else None
         if img is None:
             raise InputError("png: 16-bit images must be single-channel")
     elif arr.dtype == np.uint8:

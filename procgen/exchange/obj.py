@@ -59,7 +59,9 @@ def obj_export(domain: Domain, *, stem: str, provenance: dict[str, Any] | None =
         raise InputError("obj: give both uv_field and texture_field for a textured mesh")
     v = domain.vertices if domain.dim == 3 else np.column_stack([domain.vertices, np.zeros(domain.n_vertices)])
     name = stem.rsplit("/", 1)[-1]
-    out = [comment_lines(provenance), f"mtllib {name}.mtl\n", "o procgen\n"]
+    # vertex-coloured meshes carry no material: readers (trimesh) then keep the colours
+    use_mtl = uv_field is not None or color_field is None
+    out = [comment_lines(provenance)] + ([f"mtllib {name}.mtl\n"] if use_mtl else []) + ["o procgen\n"]
     if color_field:
         out.append(_rows("v %.6f %.6f %.6f %.4f %.4f %.4f", np.column_stack([v, vertex_colors(domain, color_field)])))
     else:
@@ -84,11 +86,13 @@ def obj_export(domain: Domain, *, stem: str, provenance: dict[str, Any] | None =
         mtl[3] = "Kd 1.0 1.0 1.0\n"
         mtl.append(f"map_Kd {name}.png\n")
     else:
-        out.append("usemtl procgen\n")
+        if use_mtl:
+            out.append("usemtl procgen\n")
         if normals:
             out.append(_rows("f %d//%d %d//%d %d//%d", np.stack([f1, f1], axis=2).reshape(-1, 6)))
         else:
             out.append(_rows("f %d %d %d", f1))
     files[f"{name}.obj"] = "".join(out).encode()
-    files[f"{name}.mtl"] = "".join(mtl).encode()
+    if use_mtl:
+        files[f"{name}.mtl"] = "".join(mtl).encode()
     return files

@@ -49,7 +49,7 @@ def new_drawing(bounds: tuple[float, float, float, float], width_px: int,
     w, h = x1 - x0, y1 - y0
     height_px = max(1, int(round(width_px * h / w)))
     dwg = svgwrite.Drawing(size=(f"{width_px}px", f"{height_px}px"), profile="full", debug=False)
-    dwg.viewbox(x0, -y1, w, h)
+    dwg["viewBox"] = " ".join(_fmt(v) for v in (x0, -y1, w, h))
     if background:
         dwg.add(dwg.rect(insert=(x0, -y1), size=(w, h), fill=background))
     group = dwg.g(transform="scale(1,-1)")
@@ -82,7 +82,8 @@ def polylines_svg(domain: Domain, *, stem: str = "", provenance: dict[str, Any] 
     if gradient:
         if len(gradient) < 2:
             raise InputError("svg: gradient needs at least two colours (top, bottom)")
-        grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id="procgen-fill")
+        # the path lives in the y-flipped group: bounding-box y=1 is the top on screen
+        grad = dwg.linearGradient(start=(0, 1), end=(0, 0), id="procgen-fill")
         for i, colour in enumerate(gradient):
             grad.add_stop_color(i / (len(gradient) - 1), colour)
         dwg.defs.add(grad)

@@ -1,0 +1,54 @@
+"""The gallery renders in parallel, resumes without redoing work, and survives a failing entry."""
+from __future__ import annotations
+
+import json
+
+from procgen.gallery import build_gallery, load_gallery
+
+
+def _gallery(tmp_path, entries: str):
+    g = tmp_path / "gallery.toml"
+    g.write_text(entries)
+    return g
+
+
+def test_gallery_renders_resumes_and_reports_failures(host, tmp_path, monkeypatch):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[steps]]\nrule = "grid.noise"\nparams = { nx = 8, ny = 8 }\n'
+                   '[[outputs]]\ndomain = "terrain"\nformat = "image_png"\noptions = { field = "surface__height" }\n')
+    g = _gallery(tmp_path, f"""
+[[entry]]
+recipe = "demo/basics"
+seeds = [1, 2]
+title = "basics"
+quick = {{ "steps.4.params.nx" = 32, "steps.4.params.ny" = 32 }}
+
+[[entry]]
+recipe = "{bad}"
+id = "broken"
+title = "fails on purpose"
+set = {{ "steps.0.params.nx" = 8, "outputs.0.options.cmap" = "no_such_cmap" }}
+""")
+    monkeypatch.setattr("procgen.gallery.gallery_dir", lambda: tmp_path)
+    assert [e.slug for e in load_gallery(host)] == ["demo-basics", "broken"]
+    out = tmp_path / "out"
+    rep = build_gallery(host, jobs=2, quick=True, out_dir=out, progress=False)
+    assert [r.status for r in rep.results] == ["done", "done", "failed"]
+    assert "no_such_cmap" in rep.failed[0].error
+    stamp = json.loads((out / "demo-basics/seed-1/.procgen-done.json").read_text())
+    assert "outline.svg" in stamp["files"]
+    index = (out / "index.html").read_text()
+    assert "demo-basics/seed-2/outline.svg" in index and "failed" in index
+    first = (out / "demo-basics/seed-1/outline.svg").stat().st_mtime_ns
+    # a re-run does nothing for finished entries
+    rep2 = build_gallery(host, jobs=1, quick=True, out_dir=out, progress=False)
+    assert [r.status for r in rep2.results] == ["skipped", "skipped", "failed"]
+    assert (out / "demo-basics/seed-1/outline.svg").stat().st_mtime_ns == first
+    # an interrupted entry (half-written temp folder, no stamp) is redone; others are kept
+    (out / "demo-basics/seed-2/.procgen-done.json").unlink()
+    (out / "demo-basics/.tmp-seed-2-999").mkdir()
+    rep3 = build_gallery(host, jobs=1, quick=True, out_dir=out, progress=False, only=["demo/*"])
+    assert [r.status for r in rep3.results] == ["skipped", "done"]
+    # a different quick setting is a different provenance: re-rendered
+    rep4 = build_gallery(host, jobs=1, quick=False, out_dir=out, progress=False, only=["demo/*"])
+    assert [r.status for r in rep4.results] == ["done", "done"]
