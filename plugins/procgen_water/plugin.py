@@ -4,4 +4,11 @@ from procgen import hookimpl
 
 @hookimpl
 def procgen_register_rules():
-    return []
+    from .rules import RULES
+    return list(RULES)
+
+
+@hookimpl
+def procgen_register_exporters():
+    from .exporters import EXPORTERS
+    return list(EXPORTERS)
