@@ -61,3 +61,26 @@ def test_every_gallery_list_file_is_shipped():
 def test_every_shipped_recipe_passes_check(host):
     for name in list_recipes(host):
         load_recipe(name, host)
+
+
+def test_wheel_ships_plugins_recipes_and_gallery(tmp_path):
+    """Build the wheel as pip would and look inside: nothing the install needs is left out."""
+    import subprocess
+    import sys
+    import zipfile
+
+    subprocess.run([sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation",
+                    "-w", str(tmp_path), "-q"], check=True, capture_output=True, timeout=300)
+    wheel = next(tmp_path.glob("procgen_rules-*.whl"))
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for target in _declared_entry_points().values():
+        pkg = target.split(".")[0]
+        assert f"{pkg}/__init__.py" in names, f"{pkg} missing from the wheel"
+    for f in (ROOT / "rules").rglob("*.toml"):
+        assert f"procgen/_data/rules/{f.relative_to(ROOT / 'rules').as_posix()}" in names
+    for f in (ROOT / "gallery").glob("*.toml"):
+        assert f"procgen/_data/gallery/{f.name}" in names
+    ep = next(n for n in names if n.endswith("entry_points.txt"))
+    text = zipfile.ZipFile(wheel).read(ep).decode()
+    for name in _declared_entry_points():
+        assert f"{name} = " in text

@@ -1,0 +1,1 @@
+"""Gray-Scott reaction-diffusion for procgen: spots, stripes and coral from two chemicals."""
