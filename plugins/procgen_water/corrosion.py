@@ -83,10 +83,10 @@ class CorrosionParams:
     seed_rate: float = 0.0005
     max_seeds: int = 10
     age_step: int = 5
-    a0: float = 0.5
+    a0: float = 0.3
     a1: float = 0.02
     a2: float = 0.1
-    b0: float = 0.6
+    b0: float = 1.0
     b1: float = 0.08
     strong_bonus: float = 0.4
     noise: float = 0.5

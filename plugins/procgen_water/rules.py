@@ -264,6 +264,7 @@ class Corrosion(RuleBase):
         FieldSpec("corrosion__weak", SURF, "cell", "in", units="1"),
         FieldSpec("corrosion__state", SURF, "cell", "out", units="1"),
         FieldSpec("corrosion__time", SURF, "cell", "out", units="steps"),
+        FieldSpec("corrosion__map", SURF, "cell", "out", units="1"),
     )
     grid: str = param("terrain", doc="Grid with a metal layer")
     metal: str = param("copper", doc="name of the corrodible metal layer")
@@ -328,6 +329,8 @@ class Corrosion(RuleBase):
         s.source += ((d_metal + d_oxide) * s.cell_area).ravel()
         new_state = np.where(hole, 2, np.where(corroded, 1, 0)).astype(np.int8)
         g["corrosion__state"] = new_state
+        g.add_field("corrosion__map", np.where(new_state > 0, 1.0 + new_state, g["corrosion__weak"]),
+                    at="cell", units="1", doc="0 strong, 1 weak, 2 corroded, 3 hole (plate 2.2 maps)")
         g["corrosion__age"] = age
         tm = np.array(g["corrosion__time"])
         tm[newly] = self._t0 + state.iteration
