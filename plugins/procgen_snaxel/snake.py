@@ -169,8 +169,20 @@ class Snake:
                                     np.full(run_e[r] - run_s[r] + 1, carry), t_parent, curve)
                      for r in range(len(run_s))]
 
+        # The chain's first snaxel is its head (the joint of a single curve): keep it in place,
+        # or hand it to the first child that replaces it (the children follow the same arc).
+        h = (len(keep) - k0) % len(keep)
+        if keep[h]:
+            head_piece = ("arc", int(np.searchsorted(arc_s, h, side="right")) - 1)
+            head_off = h - int(arc_s[head_piece[1]])
+        else:
+            a_prev = int(np.searchsorted(arc_e, h)) - 1
+            head_piece, head_off = ("run", succ[a_prev][0]), 0
+
         def assemble(loop: list[tuple[str, int]]) -> tuple[np.ndarray, np.ndarray]:
             pi, pf = [], []
+            head = 0
+            at = 0
             for kind, j in loop:
                 if kind == "arc":
                     pi.append(ints[arc_s[j]:arc_e[j] + 1])
@@ -178,7 +190,13 @@ class Snake:
                 else:
                     pi.append(run_parts[j][0])
                     pf.append(run_parts[j][1])
-            return np.concatenate(pi), np.concatenate(pf)
+                if (kind, j) == head_piece:
+                    head = at + head_off
+                at += len(pi[-1])
+            out_i, out_f = np.concatenate(pi), np.concatenate(pf)
+            if head:
+                out_i, out_f = np.roll(out_i, -head, axis=0), np.roll(out_f, -head, axis=0)
+            return out_i, out_f
 
         if len(loops) == 1:
             self.ints, self.flts = assemble(loops[0])
