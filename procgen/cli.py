@@ -20,6 +20,8 @@ examples:
   procgen rules show points.poisson_disk            parameters, ranges, units, fields
   procgen recipes list                              built-in and plugin recipes
   procgen plugins                                   loaded plugins, and why a broken one failed
+  procgen sweep demo/basics --grid "steps.0.params.radius=0.05,0.1" --seeds 1-4
+  procgen new-plugin lichen --dir ~/src              start an outside plugin package
 """
 
 
@@ -77,6 +79,22 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--out", type=Path, default=None, help="output folder (default gallery/out)")
     g.add_argument("--force", action="store_true", help="re-render entries that are up to date")
     g.add_argument("--list", action="store_true", help="list the entries and exit")
+    sw = cmd("sweep", "Run a recipe over a grid of parameter values and seeds; write summary.csv.",
+             'procgen sweep clouds/fig4_3a --grid "steps.2.params.n_c=2,4,8" --seeds 1-100')
+    sw.add_argument("recipe")
+    sw.add_argument("--grid", action="append", default=[], metavar="KEY=V1,V2,...",
+                    help="a parameter axis (repeatable; the sweep is their product)")
+    sw.add_argument("--seeds", default="1", help="seeds: N, A-B or a comma list (default 1)")
+    sw.add_argument("--out", type=Path, default=None, help="output folder (default out/sweep-<recipe>)")
+    sw.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 1)), help="local processes")
+    sw.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run on a dask.distributed cluster (tcp://host:8786); needs the dask extra")
+    sw.add_argument("--force", action="store_true", help="re-run runs that are already done")
+
+    np_ = cmd("new-plugin", "Write a ready-to-install plugin package with one rule, recipe and test.",
+              "procgen new-plugin lichen --dir ~/src")
+    np_.add_argument("name", help="family name: lower case letters, digits and _ (e.g. lichen)")
+    np_.add_argument("--dir", type=Path, default=Path("."), help="where to create procgen-NAME/")
     return p
 
 
@@ -171,6 +189,27 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                                force=args.force)
         print(report.summary())
         return 1 if report.failed else 0
+    if args.command == "sweep":
+        from .recipes import find_recipe
+        from .sweep import parse_seeds, sweep
+
+        find_recipe(args.recipe, host)
+        out = args.out or Path("out") / f"sweep-{Path(args.recipe).stem}"
+        results = sweep(args.recipe, args.grid, parse_seeds(args.seeds), out, jobs=args.jobs,
+                        scheduler=args.scheduler, force=args.force)
+        failed = [r for r in results if r.status == "failed"]
+        done = sum(r.status == "done" for r in results)
+        print(f"sweep: {done} run, {len(results) - done - len(failed)} up to date, {len(failed)} failed "
+              f"-> {out / 'summary.csv'}")
+        for r in failed:
+            print(f"  FAILED {r.key}: {r.error}")
+        return 1 if failed else 0
+    if args.command == "new-plugin":
+        from .scaffold import new_plugin
+
+        path = new_plugin(args.name, args.dir)
+        print(f"wrote {path}/ - next: pip install -e {path} && pytest {path}")
+        return 0
     parser.error(f"unknown command {args.command}")
     return 2
 

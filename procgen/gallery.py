@@ -1,35 +1,31 @@
 """The gallery: every entry of gallery/gallery.toml rendered in parallel, resumably, into index.html.
 
-Each entry+seed renders into a temporary folder that is renamed into place only when complete,
-with a ``.procgen-done.json`` stamp holding a provenance hash (recipe after overrides, seed,
-package versions, quick flag). A re-run skips entries whose stamp matches, so an interrupted
-run (Ctrl-C, kill -9) resumes without redoing finished work.
+Each entry+seed is a job (procgen.jobs): rendered into a temporary folder renamed into place
+when complete, with a stamp holding a provenance hash (recipe after overrides, seed, package
+versions; --quick marks the recipe). A re-run skips entries whose stamp matches, so an
+interrupted run (Ctrl-C, kill -9) resumes without redoing finished work.
 """
 from __future__ import annotations
 
 import fnmatch
-import hashlib
 import html
 import json
-import os
-import shutil
 import sys
 import time
-import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .data import gallery_dir
-from .errors import ProcgenError, RecipeError
+from .errors import RecipeError
 from .exchange import write
+from .jobs import JobResult, clean_stale_temps, render_job
 from .recipes import parse_toml
 
 if TYPE_CHECKING:
     from .plugins import PluginHost
 
-STAMP = ".procgen-done.json"
 ENTRY_KEYS = ("recipe", "seeds", "title", "figure", "caption", "quick", "set", "id")
 
 
@@ -44,17 +40,6 @@ class Entry:
     set: dict[str, Any] = field(default_factory=dict)
     slug: str = ""
     source: str = ""
-
-
-@dataclass
-class JobResult:
-    slug: str
-    seed: int
-    status: str  # "done", "skipped", "failed"
-    seconds: float = 0.0
-    error: str = ""
-    files: list[str] = field(default_factory=list)
-    reports: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -73,7 +58,7 @@ class GalleryReport:
         lines = [f"gallery: {done} rendered, {skipped} up to date, {len(self.failed)} failed "
                  f"in {self.seconds:.1f} s -> {self.out_dir / 'index.html'}"]
         for r in self.failed:
-            lines.append(f"  FAILED {r.slug} seed {r.seed}: {r.error}")
+            lines.append(f"  FAILED {r.key} seed {r.seed}: {r.error}")
         return "\n".join(lines)
 
 
@@ -139,50 +124,10 @@ def _toml_value(v: Any) -> str:
     return repr(v)
 
 
-def job_hash(recipe_data: dict[str, Any], seed: int, versions: dict[str, str], quick: bool) -> str:
-    blob = json.dumps({"recipe": recipe_data, "seed": seed, "versions": versions, "quick": quick},
-                      sort_keys=True, default=str).encode()
-    return hashlib.sha256(blob).hexdigest()
-
-
-def _render_job(entry: Entry, seed: int, out_root: str, quick: bool, force: bool) -> JobResult:
-    """Worker: render one entry+seed into its folder (atomically), or skip it if up to date."""
-    from .plugins import get_plugin_manager
-    from .recipes import load_recipe
-    from .runner import run
-
-    t0 = time.perf_counter()
-    final = Path(out_root) / entry.slug / f"seed-{seed}"
-    try:
-        host = get_plugin_manager()
-        recipe = load_recipe(entry.recipe, host, overrides_for(entry, quick))
-        h = job_hash(recipe.data, seed, host.versions(), quick)
-        stamp = final / STAMP
-        if not force and stamp.is_file():
-            try:
-                old = json.loads(stamp.read_text())
-                if old.get("hash") == h:
-                    return JobResult(entry.slug, seed, "skipped", 0.0, files=old.get("files", []),
-                                     reports=old.get("reports", {}))
-            except (OSError, ValueError):
-                pass
-        tmp = final.parent / f".tmp-seed-{seed}-{os.getpid()}"
-        shutil.rmtree(tmp, ignore_errors=True)
-        result = run(recipe, host, seed=seed, out_dir=tmp, progress=False)
-        secs = time.perf_counter() - t0
-        info = {"hash": h, "recipe": entry.recipe, "seed": seed, "seconds": round(secs, 3),
-                "files": sorted(result.files), "reports": result.state.reports}
-        write(tmp / STAMP, json.dumps(info, indent=2, sort_keys=True, default=str))
-        if final.exists():
-            shutil.rmtree(final)
-        os.replace(tmp, final)
-        return JobResult(entry.slug, seed, "done", secs, files=sorted(result.files), reports=result.state.reports)
-    except ProcgenError as exc:
-        return JobResult(entry.slug, seed, "failed", time.perf_counter() - t0, error=" ".join(str(exc).split()))
-    except Exception as exc:  # one broken entry must not stop the others
-        tb = traceback.extract_tb(exc.__traceback__)[-1]
-        return JobResult(entry.slug, seed, "failed", time.perf_counter() - t0,
-                         error=f"{type(exc).__name__}: {exc} (at {Path(tb.filename).name}:{tb.lineno})")
+def _render_entry(entry: Entry, seed: int, out_root: str, quick: bool, force: bool) -> JobResult:
+    overrides = overrides_for(entry, quick) + (["recipe.notes=\"quick\""] if quick else [])
+    return render_job(entry.slug, entry.recipe, overrides, seed,
+                      str(Path(out_root) / entry.slug / f"seed-{seed}"), force)
 
 
 def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: int = 1, quick: bool = False,
@@ -193,6 +138,7 @@ def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: in
     t0 = time.perf_counter()
     out = Path(out_dir) if out_dir else Path("gallery") / "out"
     out.mkdir(parents=True, exist_ok=True)
+    clean_stale_temps(out)
     entries = load_gallery(host, only)
     jobs_list = [(e, s) for e in entries for s in e.seeds]
     show = sys.stderr.isatty() if progress is None else progress
@@ -200,17 +146,17 @@ def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: in
     bar = tqdm(total=len(jobs_list), desc="gallery", unit="entry", disable=not show, file=sys.stderr)
     if jobs <= 1:
         for e, s in jobs_list:
-            results.append(_render_job(e, s, str(out), quick, force))
+            results.append(_render_entry(e, s, str(out), quick, force))
             bar.update(1)
     else:
         with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futs = [pool.submit(_render_job, e, s, str(out), quick, force) for e, s in jobs_list]
+            futs = [pool.submit(_render_entry, e, s, str(out), quick, force) for e, s in jobs_list]
             for fut in as_completed(futs):
                 results.append(fut.result())
                 bar.update(1)
     bar.close()
     order = {(e.slug, s): i for i, (e, s) in enumerate(jobs_list)}
-    results.sort(key=lambda r: order[(r.slug, r.seed)])
+    results.sort(key=lambda r: order[(r.key, r.seed)])
     write_index(out, entries, results, quick)
     return GalleryReport(out, results, time.perf_counter() - t0)
 
@@ -224,7 +170,7 @@ def _thumbs(files: list[str]) -> list[str]:
 
 def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick: bool) -> None:
     """The contact sheet: a card per entry+seed with thumbnails, figure, caption and links."""
-    by = {(r.slug, r.seed): r for r in results}
+    by = {(r.key, r.seed): r for r in results}
     cards = []
     for e in entries:
         for s in e.seeds:

@@ -34,7 +34,7 @@ set = {{ "steps.0.params.nx" = 8, "outputs.0.options.cmap" = "no_such_cmap" }}
     out = tmp_path / "out"
     rep = build_gallery(host, jobs=2, quick=True, out_dir=out, progress=False)
     assert [r.status for r in rep.results] == ["done", "done", "failed"]
-    assert "no_such_cmap" in rep.failed[0].error
+    assert "no_such_cmap" in rep.failed[0].error and rep.failed[0].key == "broken"
     stamp = json.loads((out / "demo-basics/seed-1/.procgen-done.json").read_text())
     assert "outline.svg" in stamp["files"]
     index = (out / "index.html").read_text()

@@ -1,0 +1,139 @@
+"""Parameter x seed sweeps: the product of --grid values and seeds, run locally or on dask.
+
+Each run is a resumable job (procgen.jobs). Locally they run in a process pool; with a
+scheduler address they run on a dask.distributed cluster (extra ``dask``; imported only then).
+The summary CSV has a row per run with its parameters, status, time and reported numbers.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+import re
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .errors import RecipeError
+from .exchange import write
+from .jobs import JobResult, clean_stale_temps, render_job
+from .recipes import parse_override
+
+
+@dataclass
+class SweepRun:
+    key: str
+    overrides: list[str]
+    values: dict[str, Any]
+    seed: int
+
+
+def parse_grid(spec: str) -> tuple[str, list[str]]:
+    """``steps.3.params.n_c=2,4,8`` -> ('steps.3.params.n_c', ['2', '4', '8'])."""
+    if "=" not in spec:
+        raise RecipeError(f"--grid {spec!r}: expected KEY=V1,V2,..., e.g. steps.1.params.radius=0.01,0.02")
+    key, raw = spec.split("=", 1)
+    values = [v.strip() for v in raw.split(",") if v.strip()]
+    if not values:
+        raise RecipeError(f"--grid {spec!r}: no values")
+    for v in values:
+        parse_override(f"{key}={v}")
+    return key.strip(), values
+
+
+def parse_seeds(spec: str) -> list[int]:
+    """``1-100``, ``3``, or ``1,5,9`` (ranges inclusive)."""
+    seeds: list[int] = []
+    for part in spec.split(","):
+        part = part.strip()
+        m = re.fullmatch(r"(\d+)-(\d+)", part)
+        if m:
+            a, b = int(m.group(1)), int(m.group(2))
+            if b < a:
+                raise RecipeError(f"--seeds {spec!r}: range {part} runs backwards")
+            seeds.extend(range(a, b + 1))
+        elif part.isdigit():
+            seeds.append(int(part))
+        else:
+            raise RecipeError(f"--seeds {spec!r}: expected N, A-B or a comma list")
+    return seeds
+
+
+def plan(grids: list[str], seeds: list[int]) -> list[SweepRun]:
+    axes = [parse_grid(g) for g in grids]
+    runs = []
+    for combo in itertools.product(*[[(k, v) for v in vals] for k, vals in axes]):
+        label = "_".join(f"{k.rsplit('.', 1)[-1]}-{re.sub(r'[^A-Za-z0-9.]+', '', v)}" for k, v in combo) or "base"
+        for seed in seeds:
+            runs.append(SweepRun(f"{label}/seed-{seed}", [f"{k}={v}" for k, v in combo], dict(combo), seed))
+    return runs
+
+
+def sweep(recipe_ref: str, grids: list[str], seeds: list[int], out_dir: Path, *, jobs: int = 1,
+          scheduler: str | None = None, force: bool = False, progress: bool | None = None) -> list[JobResult]:
+    """Run every (grid point, seed); write ``summary.csv``; return the results in plan order."""
+    from tqdm import tqdm
+
+    from .plugins import get_plugin_manager
+    from .recipes import load_recipe
+
+    runs = plan(grids, seeds)
+    host = get_plugin_manager()
+    for r in runs[:: max(1, len(seeds))]:
+        load_recipe(recipe_ref, host, r.overrides)  # fail fast: every grid point must check
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    clean_stale_temps(out_dir)
+    args = [(r.key, recipe_ref, r.overrides, r.seed, str(out_dir / r.key), force) for r in runs]
+    show = sys.stderr.isatty() if progress is None else progress
+    bar = tqdm(total=len(runs), desc="sweep", unit="run", disable=not show, file=sys.stderr)
+    results: dict[str, JobResult] = {}
+    if scheduler:
+        try:
+            from dask.distributed import Client, as_completed as dask_completed
+        except ImportError:
+            raise RecipeError("--scheduler needs the dask extra: pip install 'procgen-rules[dask]'") from None
+        client = Client(scheduler) if isinstance(scheduler, str) else scheduler
+        try:
+            futs = [client.submit(render_job, *a, pure=False) for a in args]
+            for fut in dask_completed(futs):
+                res = fut.result()
+                results[res.key] = res
+                bar.update(1)
+        finally:
+            if isinstance(scheduler, str):
+                client.close()
+    elif jobs <= 1:
+        for a in args:
+            res = render_job(*a)
+            results[res.key] = res
+            bar.update(1)
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            for fut in as_completed([pool.submit(render_job, *a) for a in args]):
+                res = fut.result()
+                results[res.key] = res
+                bar.update(1)
+    bar.close()
+    ordered = [results[r.key] for r in runs]
+    write(out_dir / "summary.csv", summary_csv(runs, ordered))
+    return ordered
+
+
+def summary_csv(runs: list[SweepRun], results: list[JobResult]) -> str:
+    params = sorted({k for r in runs for k in r.values})
+    reports = sorted({k for res in results for k, v in res.reports.items() if not isinstance(v, (dict, list))})
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["run", "seed", *params, "status", "seconds", *reports, "error"])
+    for r, res in zip(runs, results):
+        w.writerow([r.key, r.seed, *[r.values.get(p, "") for p in params], res.status,
+                    f"{res.seconds:.3f}", *[res.reports.get(k, "") for k in reports], res.error])
+    return buf.getvalue()
+
+
+def elapsed(t0: float) -> float:
+    return time.perf_counter() - t0
