@@ -42,7 +42,7 @@ class CorrosionParams:
 
     k1: float = 0.0005         # consumable (metal) lost per step by a corroded cell
     k2: float = 0.02          # product (oxide) gained per step
-    k3: float = 0.2           # product cap
+    k3: float = 1.0           # product cap
     seed_rate: float = 1e-6   # expected new seeds per cell per step
     max_seeds: int = 60
     max_attacks: int = 7

@@ -4,4 +4,13 @@ from procgen import hookimpl
 
 @hookimpl
 def procgen_register_rules():
-    return []
+    from .rules import (BuildCells, CupPrimitive, LatticePrimitive, ShadeCells, SurfaceCorrosion,
+                        SurfaceLayers, SurfaceVoronoi)
+    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceLayers, SurfaceVoronoi,
+            SurfaceCorrosion, ShadeCells]
+
+
+@hookimpl
+def procgen_register_exporters():
+    from .exporters import EXPORTERS
+    return list(EXPORTERS)

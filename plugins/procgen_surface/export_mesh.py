@@ -1,0 +1,270 @@
+"""Export geometry: the surface displaced by cumulative layer thickness, cells baked in an atlas.
+
+Every input triangle is subdivided N x N (the same N everywhere, so shared edges stay conforming
+and the output is watertight when the input is).  Each lattice vertex is displaced along the
+interpolated vertex normal (the thesis's "rounded facets") by the stacked thickness of the cell
+under it; vertices on shared edges average both triangles' values (thesis 4.2.3.a).  Triangles
+over holes are removed.  Texture coordinates map each triangle's own cell grid, packed as a
+rectangle in one atlas image (one texel block per cell).
+"""
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import numpy as np
+
+from procgen.errors import InputError
+
+from .domain import SurfaceCells, barycentric
+
+
+@dataclass(frozen=True)
+class Atlas:
+    """Placement of every triangle's cell grid in one image."""
+
+    image: np.ndarray      # (H, W, 4) float RGBA in [0, 1], row 0 = top
+    origin: np.ndarray     # (m, 2) texel (x, y) of each face's cell (0, 0) corner
+    texels: int            # texels per cell side
+
+    def uv(self, face: np.ndarray, xy: np.ndarray, size: float) -> np.ndarray:
+        """Texture coordinates (u right, v up) of 2-D frame points of ``face``."""
+        h, w = self.image.shape[:2]
+        px = self.origin[face] + xy / size * self.texels
+        return np.column_stack([px[:, 0] / w, 1.0 - px[:, 1] / h])
+
+
+def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
+               texels: int = 2, pad: int = 1) -> Atlas:
+    """Shelf-pack the face grids and paint each cell's colour (alpha 0 on holes)."""
+    nx, ny = cells.nx, cells.ny
+    w_f, h_f = nx * texels + 2 * pad, ny * texels + 2 * pad
+    use = nx > 0
+    area = int(np.sum((w_f * h_f)[use]))
+    width = max(int(np.ceil(np.sqrt(area) * 1.05)), int(w_f.max()))
+    order = np.argsort(-h_f, kind="stable")
+    origin = np.zeros((len(nx), 2), np.int64)
+    x = y = shelf = 0
+    for f in order[use[order]]:            # packing loop over triangles (setup, not per step)
+        if x + w_f[f] > width:
+            x, y, shelf = 0, y + shelf, 0
+        origin[f] = (x + pad, y + pad)
+        x += w_f[f]
+        shelf = max(shelf, h_f[f])
+    height = y + shelf
+    img = np.zeros((height, width, 4))
+    filled = np.zeros((height, width), bool)
+    k = texels
+    base = origin[cells.face] + cells.ij * k                   # (n, 2) texel (x, y)
+    for dy in range(k):                                        # k*k texel offsets, vectorised
+        for dx in range(k):
+            yy, xx = base[:, 1] + dy, base[:, 0] + dx
+            img[yy, xx, :3] = rgb
+            img[yy, xx, 3] = alive.astype(float)
+            filled[yy, xx] = True
+    # bleed colours into unused texels so bilinear filtering never picks up black
+    from scipy.ndimage import distance_transform_edt
+    if (~filled).any() and filled.any():
+        idx = distance_transform_edt(~filled, return_distances=False, return_indices=True)
+        img[~filled, :3] = img[idx[0][~filled], idx[1][~filled], :3]
+    return Atlas(image=img, origin=origin, texels=k)
+
+
+@dataclass(frozen=True)
+class DisplacedMesh:
+    vertices: np.ndarray     # (V, 3)
+    faces: np.ndarray        # (T, 3)
+    corner_uv: np.ndarray    # (T, 3, 2)
+    vertex_rgb: np.ndarray   # (V, 3) colour of the cell under each vertex
+    face_cell: np.ndarray    # (T,) cell under each triangle's centroid
+
+
+def _lattice(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Barycentric lattice points (P, 3) with weights (N-a-b, a, b)/N and its triangles."""
+    pts, index = [], {}
+    for a in range(n + 1):
+        for b in range(n + 1 - a):
+            index[(a, b)] = len(pts)
+            pts.append((n - a - b, a, b))
+    tris = []
+    for a in range(n):
+        for b in range(n - a):
+            tris.append((index[(a, b)], index[(a + 1, b)], index[(a, b + 1)]))
+            if a + b + 2 <= n:
+                tris.append((index[(a + 1, b)], index[(a + 1, b + 1)], index[(a, b + 1)]))
+    return np.asarray(pts, np.int64), np.asarray(tris, np.int64)
+
+
+def subdivision_level(cells: SurfaceCells, cells_per_segment: float, max_triangles: int) -> int:
+    f = cells.faces[cells.valid]
+    v = cells.vertices
+    longest = np.max(np.linalg.norm(v[f[:, [1, 2, 0]]] - v[f], axis=2))
+    n = int(np.ceil(longest / (cells.size * cells_per_segment)))
+    n_cap = int(np.sqrt(max_triangles / max(len(f), 1)))
+    return int(np.clip(n, 1, max(n_cap, 1)))
+
+
+def cell_under(cells: SurfaceCells, face: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Active cell of ``face`` containing 2-D points (nudged into the triangle); -1 if none."""
+    c2 = cells.corners2d[face]
+    q = xy + 1e-6 * (c2.mean(axis=1) - xy)
+    ij = np.floor(q / cells.size).astype(np.int64)
+    i = np.clip(ij[:, 0], 0, np.maximum(cells.nx[face] - 1, 0))
+    j = np.clip(ij[:, 1], 0, np.maximum(cells.ny[face] - 1, 0))
+    return cells.layout.cell_at(face, i, j)
+
+
+def displaced_mesh(cells: SurfaceCells, height: np.ndarray, rgb: np.ndarray, alive: np.ndarray,
+                   atlas: Atlas | None, *, level: int, exaggerate: float = 1.0) -> DisplacedMesh:
+    """Subdivide, displace by ``height`` (per cell) along interpolated normals, drop holes."""
+    pts, tris = _lattice(level)
+    faces_src = np.nonzero(cells.valid)[0]
+    mf = len(faces_src)
+    P = len(pts)
+    f_rep = np.repeat(faces_src, P)                            # (mf*P,)
+    bc = np.tile(pts / level, (mf, 1))
+    verts_src = cells.faces[f_rep]                              # (mf*P, 3)
+    xyz = np.einsum("nk,nkd->nd", bc, cells.vertices[verts_src])
+    xy = np.einsum("nk,nkd->nd", bc, cells.corners2d[f_rep])
+    cell = cell_under(cells, f_rep, xy)
+    # canonical key: the (vertex id, weight) pairs with non-zero weight, sorted by vertex id
+    w = np.tile(pts, (mf, 1))
+    vid = np.where(w > 0, verts_src, np.iinfo(np.int64).max)
+    order = np.argsort(vid, axis=1)
+    key = np.concatenate([np.take_along_axis(vid, order, 1), np.take_along_axis(w, order, 1)], 1)
+    interior = np.all(w > 0, axis=1)
+    key[interior, 0] = -1 - f_rep[interior]                     # interior points: per face
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    nv = int(inv.max()) + 1
+    cnt = np.bincount(inv, minlength=nv).astype(float)
+    pos = np.zeros((nv, 3))
+    np.add.at(pos, inv, xyz)
+    pos /= cnt[:, None]
+    # normals: face-sign-corrected vertex normals interpolated, averaged over duplicates
+    fn = cells_face_normals(cells)[f_rep]
+    vn = vertex_normals(cells)[verts_src]
+    vn = np.where((np.sum(vn * fn[:, None], 2) < 0)[..., None], -vn, vn)
+    nrm_s = np.einsum("nk,nkd->nd", bc, vn)
+    nrm = np.zeros((nv, 3))
+    np.add.at(nrm, inv, nrm_s)
+    ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+    nrm = np.divide(nrm, ln, out=np.zeros_like(nrm), where=ln > 1e-12)
+    ok = cell >= 0
+    h = np.zeros(nv)
+    hc = np.zeros(nv)
+    np.add.at(h, inv[ok], height[cell[ok]])
+    np.add.at(hc, inv[ok], 1.0)
+    h = np.divide(h, hc, out=np.zeros(nv), where=hc > 0)
+    col = np.zeros((nv, 3))
+    np.add.at(col, inv[ok], rgb[cell[ok]])
+    col = np.divide(col, hc[:, None], out=np.zeros((nv, 3)), where=hc[:, None] > 0)
+    pos = pos + (exaggerate * h)[:, None] * nrm
+    # triangles
+    t_local = tris[None, :, :] + (np.arange(mf) * P)[:, None, None]   # (mf, T, 3)
+    t_flat = t_local.reshape(-1, 3)
+    t_face = np.repeat(faces_src, len(tris))
+    cen_xy = xy[t_flat].mean(axis=1)
+    t_cell = cell_under(cells, t_face, cen_xy)
+    keep = (t_cell >= 0) & alive[np.maximum(t_cell, 0)]
+    t_flat, t_face, t_cell = t_flat[keep], t_face[keep], t_cell[keep]
+    if atlas is not None:
+        uv = atlas.uv(np.repeat(t_face, 3), xy[t_flat.ravel()], cells.size).reshape(-1, 3, 2)
+    else:
+        uv = np.zeros((len(t_flat), 3, 2))
+    faces_out = inv[t_flat]
+    # drop unused vertices
+    used = np.unique(faces_out)
+    remap = np.full(nv, -1, np.int64)
+    remap[used] = np.arange(len(used))
+    return DisplacedMesh(pos[used], remap[faces_out], uv, col[used], t_cell)
+
+
+def cells_face_normals(cells: SurfaceCells) -> np.ndarray:
+    from .domain import face_normals
+    return face_normals(cells.vertices, cells.faces)
+
+
+def vertex_normals(cells: SurfaceCells) -> np.ndarray:
+    from .domain import _vertex_normals
+    return _vertex_normals(cells.vertices, cells.faces)
+
+
+# -- file writers --------------------------------------------------------------------------
+
+def _rows(fmt: str, arr: np.ndarray) -> str:
+    buf = io.StringIO()
+    np.savetxt(buf, arr, fmt=fmt)
+    return buf.getvalue()
+
+
+def png_rgba(image: np.ndarray) -> bytes:
+    from PIL import Image
+    arr = np.clip(np.round(image * 255), 0, 255).astype(np.uint8)
+    buf = io.BytesIO()
+    Image.fromarray(arr, "RGBA").save(buf, format="PNG", optimize=False)
+    return buf.getvalue()
+
+
+def obj_files(mesh: DisplacedMesh, atlas: Atlas | None, *, name: str, header: str = "",
+              vertex_colors: bool = False) -> dict[str, bytes]:
+    """OBJ (+ MTL + PNG atlas) bytes; ``v x y z r g b`` when ``vertex_colors``."""
+    out = [header, f"mtllib {name}.mtl\n", "o surface\n"]
+    if vertex_colors:
+        out.append(_rows("v %.6f %.6f %.6f %.4f %.4f %.4f",
+                         np.column_stack([mesh.vertices, mesh.vertex_rgb])))
+    else:
+        out.append(_rows("v %.6f %.6f %.6f", mesh.vertices))
+    files: dict[str, bytes] = {}
+    mtl = ["newmtl surface\n", "Ka 0.2 0.2 0.2\n", "Kd 1.0 1.0 1.0\n", "Ks 0.0 0.0 0.0\n",
+           "d 1.0\n", "illum 1\n"]
+    f1 = mesh.faces + 1
+    if atlas is not None:
+        uv, t_idx = np.unique(mesh.corner_uv.reshape(-1, 2), axis=0, return_inverse=True)
+        out.append(_rows("vt %.6f %.6f", uv))
+        t1 = t_idx.reshape(-1, 3) + 1
+        out.append("usemtl surface\n")
+        out.append(_rows("f %d/%d %d/%d %d/%d", np.stack([f1, t1], axis=2).reshape(-1, 6)))
+        files[f"{name}_atlas.png"] = png_rgba(atlas.image)
+        mtl += [f"map_Kd {name}_atlas.png\n", f"map_d {name}_atlas.png\n"]
+    else:
+        out.append("usemtl surface\n")
+        out.append(_rows("f %d %d %d", f1))
+    files[f"{name}.obj"] = "".join(out).encode()
+    files[f"{name}.mtl"] = "".join(mtl).encode()
+    return files
+
+
+def to_trimesh(mesh: DisplacedMesh, atlas: Atlas | None):
+    """A trimesh.Trimesh with the atlas as texture (vertices split where UVs differ)."""
+    import trimesh
+    from PIL import Image
+
+    if atlas is None:
+        tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+        rgb = np.round(mesh.vertex_rgb * 255).astype(np.uint8)
+        tm.visual.vertex_colors = np.column_stack([rgb, np.full(len(rgb), 255, np.uint8)])
+        return tm
+    pairs = np.column_stack([mesh.faces.reshape(-1, 1).astype(float), mesh.corner_uv.reshape(-1, 2)])
+    uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
+    verts = mesh.vertices[uniq[:, 0].astype(np.int64)]
+    img = Image.fromarray(np.clip(np.round(atlas.image * 255), 0, 255).astype(np.uint8), "RGBA")
+    material = trimesh.visual.material.PBRMaterial(baseColorTexture=img, metallicFactor=0.0,
+                                                   roughnessFactor=0.8, alphaMode="MASK",
+                                                   alphaCutoff=0.5, doubleSided=True)
+    visual = trimesh.visual.TextureVisuals(uv=uniq[:, 1:], material=material)
+    return trimesh.Trimesh(verts, inv.reshape(-1, 3), visual=visual, process=False)
+
+
+def glb_bytes(mesh: DisplacedMesh, atlas: Atlas | None, provenance: dict | None = None) -> bytes:
+    import trimesh
+
+    scene = trimesh.Scene(to_trimesh(mesh, atlas))
+    if provenance:
+        scene.metadata["procgen"] = provenance
+    return scene.export(file_type="glb")
+
+
+def check_level(level: int) -> None:
+    if level < 1:
+        raise InputError(f"subdivision level must be >= 1, got {level}")
