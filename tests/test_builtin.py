@@ -132,3 +132,29 @@ def test_grid_to_mesh_carries_fields(host):
 def test_poisson_rule_rejects_absurd_sizes(host):
     with pytest.raises(RecipeError):
         check_recipe({"steps": [{"rule": "points.poisson_disk", "params": {"radius": 1e-6}}]}, host)
+
+
+def test_extrude_outline_gives_watertight_slab_of_right_volume(host):
+    st = _run(host, [{"rule": "points.poisson_disk", "params": {"radius": 0.05}}, {"rule": "mesh.delaunay"},
+                     {"rule": "mesh.boundary"}, {"rule": "lines.smooth", "params": {"lines": "outline", "out": "o"}},
+                     {"rule": "mesh.extrude", "params": {"lines": "o", "spacing": 0.05, "depth": 0.2}}])
+    tm = st.get("solid").to_trimesh()
+    area = shapely.Polygon(st.get("o").line(0)).area
+    assert tm.is_watertight and tm.is_winding_consistent
+    assert np.isclose(tm.volume, 0.2 * area, rtol=0.02)     # positive: normals point outwards
+
+
+def test_lathe_closed_profile_is_watertight_solid_of_revolution(host):
+    from procgen import Polylines, State
+    from procgen.builtin.solids import Lathe
+
+    # a profile from the axis out and back to the axis: revolves into a closed "pill"
+    t = np.linspace(-np.pi / 2, np.pi / 2, 21)
+    prof = np.column_stack([np.cos(t), np.sin(t)])
+    prof[0, 0] = prof[-1, 0] = 0.0
+    st = State(seed=1)
+    st.add_domain("profile", Polylines.from_list([prof]))
+    Lathe(sections=96).step(st)
+    tm = st.get("lathed").to_trimesh()
+    assert tm.is_watertight
+    assert np.isclose(tm.volume, 4 / 3 * np.pi, rtol=0.02)   # unit sphere, normals outwards

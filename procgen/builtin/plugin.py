@@ -10,9 +10,10 @@ def procgen_register_rules():
     from .lines import SmoothLines
     from .meshes import DelaunayTessellation, LoadMesh, MeshBoundary, MeshPrimitive
     from .points import PoissonDiskSampling
+    from .solids import Extrude, Lathe
 
     return [PoissonDiskSampling, DelaunayTessellation, LoadMesh, MeshPrimitive, MeshBoundary,
-            FractalNoise, GridToMesh, SmoothLines]
+            FractalNoise, GridToMesh, SmoothLines, Extrude, Lathe]
 
 
 @hookimpl

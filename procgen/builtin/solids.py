@@ -1,0 +1,169 @@
+"""Converters from 2-D outlines to 3-D meshes: extrusion (a slab) and lathing (a vase/cup).
+
+They let a snaxel cloud outline or a smoothed contour become a surface that mesh automata
+grow on. Caps are triangulated from the outline plus interior Poisson-disk points, so the
+mesh has well-shaped triangles inside (surface cells need them), not long fan slivers.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..domains import Polylines, TriMesh
+from ..errors import InputError
+from ..params import param
+from ..rules import RuleBase
+from ..state import State
+
+
+def resample_ring(ring: np.ndarray, spacing: float) -> np.ndarray:
+    """Points every ``spacing`` along a closed ring (at least 8), counter-clockwise."""
+    ring = np.asarray(ring, dtype=np.float64)[:, :2]
+    if np.allclose(ring[0], ring[-1]):
+        ring = ring[:-1]
+    closed = np.vstack([ring, ring[:1]])
+    seg = np.linalg.norm(np.diff(closed, axis=0), axis=1)
+    s = np.concatenate([[0], np.cumsum(seg)])
+    n = max(8, int(np.ceil(s[-1] / spacing)))
+    t = np.linspace(0, s[-1], n, endpoint=False)
+    out = np.column_stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])])
+    x, y = out[:, 0], out[:, 1]
+    if 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
+        out = out[::-1]
+    return out
+
+
+def triangulate_polygon(ring: np.ndarray, spacing: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """(points, ccw faces) covering the polygon: boundary every ``spacing`` + interior samples.
+
+    Delaunay of boundary + interior points, keeping triangles whose centroid lies inside; with
+    the boundary sampled as densely as the interior, Delaunay recovers the boundary edges.
+    """
+    import shapely
+    from scipy.spatial import Delaunay
+
+    from .poisson import poisson_disk
+
+    boundary = resample_ring(ring, spacing)
+    poly = shapely.Polygon(boundary)
+    if not poly.is_valid or poly.area <= 0:
+        raise InputError("outline is not a simple polygon with area (self-intersecting or degenerate)")
+    x0, y0, x1, y1 = poly.bounds
+    inner = poisson_disk(rng, (x1 - x0, y1 - y0), spacing, origin=(x0, y0))
+    keep = shapely.contains_xy(poly.buffer(-0.5 * spacing), inner[:, 0], inner[:, 1])
+    pts = np.vstack([boundary, inner[keep]])
+    faces = Delaunay(pts).simplices
+    cen = pts[faces].mean(axis=1)
+    faces = faces[shapely.contains_xy(poly, cen[:, 0], cen[:, 1])]
+    a, b, c = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
+    cw = ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) < 0
+    faces[cw] = faces[cw][:, [0, 2, 1]]
+    return pts, faces.astype(np.int64)
+
+
+def _outer_ring(pl: Polylines, which: str) -> np.ndarray:
+    rings = [pl.line(i) for i in range(pl.n_lines) if pl.closed[i] and len(pl.line(i)) >= 3]
+    if not rings:
+        raise InputError(f"{which}: the Polylines hold no closed ring to use as an outline")
+    areas = [abs(0.5 * np.sum(r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1])) for r in rings]
+    return rings[int(np.argmax(areas))]
+
+
+@dataclass(kw_only=True)
+class Extrude(RuleBase):
+    """Converter: the largest closed outline of a Polylines extruded into a closed slab mesh.
+
+    A cloud or contour becomes a watertight solid (caps + side wall) for mesh automata.
+    """
+
+    name: ClassVar[str] = "mesh.extrude"
+    uses: ClassVar[dict[str, str]] = {"{lines}": "Polylines"}
+    creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "points.poisson_disk", "params": {"radius": 0.1}}, {"rule": "mesh.delaunay"},
+        {"rule": "mesh.boundary"}, {"rule": "mesh.extrude", "params": {"lines": "outline", "spacing": 0.1}})
+
+    lines: str = param("outline", doc="Polylines whose largest closed ring is extruded")
+    mesh: str = param("solid", doc="name of the TriMesh to create")
+    depth: float = param(0.1, gt=0.0, units="length", doc="extrusion depth along z")
+    spacing: float = param(0.02, gt=0.0, units="length", doc="target edge length of the mesh")
+
+    def step(self, state: State) -> bool:
+        ring = _outer_ring(state.get(self.lines, Polylines), self.name)
+        pts, faces = triangulate_polygon(ring, self.spacing, state.rng())
+        n = len(pts)
+        nb = max(8, int(np.ceil(_perimeter(ring) / self.spacing)))  # boundary points come first
+        layers = max(1, int(np.ceil(self.depth / self.spacing)))
+        z = np.linspace(0.0, self.depth, layers + 1)
+        verts = [np.column_stack([pts, np.full(n, self.depth)]), np.column_stack([pts, np.zeros(n)])]
+        top = faces
+        bottom = faces[:, ::-1] + n
+        rings = [np.arange(nb) + n if k == 0 else None for k in range(layers + 1)]
+        wall_ids = [np.arange(nb) + n]                        # z = 0 ring is the bottom cap boundary
+        offset = 2 * n
+        for k in range(1, layers):
+            verts.append(np.column_stack([pts[:nb], np.full(nb, z[k])]))
+            wall_ids.append(np.arange(nb) + offset)
+            offset += nb
+        wall_ids.append(np.arange(nb))                        # z = depth ring is the top cap boundary
+        del rings
+        walls = []
+        for lo, hi in zip(wall_ids[:-1], wall_ids[1:]):
+            lo2, hi2 = np.roll(lo, -1), np.roll(hi, -1)
+            walls += [np.stack([lo, lo2, hi2], 1), np.stack([lo, hi2, hi], 1)]
+        mesh = TriMesh(np.vstack(verts), np.vstack([top, bottom, *walls]))
+        state.add_domain(self.mesh, mesh)
+        return True
+
+
+def _perimeter(ring: np.ndarray) -> float:
+    r = np.asarray(ring)[:, :2]
+    if np.allclose(r[0], r[-1]):
+        r = r[:-1]
+    return float(np.linalg.norm(np.diff(np.vstack([r, r[:1]]), axis=0), axis=1).sum())
+
+
+@dataclass(kw_only=True)
+class Lathe(RuleBase):
+    """Converter: an open profile polyline (x = radius, y = height) revolved about the z axis.
+
+    Cups, vases and bowls: the thesis's cup objects are lathed profiles. Profile points on the
+    axis (x = 0) close the surface there.
+    """
+
+    name: ClassVar[str] = "mesh.lathe"
+    uses: ClassVar[dict[str, str]] = {"{lines}": "Polylines"}
+    creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "points.poisson_disk", "params": {"radius": 0.1}}, {"rule": "mesh.delaunay"},
+        {"rule": "mesh.boundary"}, {"rule": "mesh.lathe", "params": {"lines": "outline", "sections": 12}})
+
+    lines: str = param("profile", doc="Polylines whose first line is the profile (x = radius, y = z)")
+    mesh: str = param("lathed", doc="name of the TriMesh to create")
+    sections: int = param(64, ge=3, le=4096, doc="segments around the axis")
+
+    def step(self, state: State) -> bool:
+        pl = state.get(self.lines, Polylines)
+        prof = np.asarray(pl.line(0), dtype=np.float64)[:, :2]
+        if len(prof) < 2:
+            raise InputError("mesh.lathe: the profile needs at least two points")
+        if (prof[:, 0] < -1e-12).any():
+            raise InputError("mesh.lathe: profile x (radius) must be >= 0")
+        closed = bool(pl.closed[0])
+        if closed:
+            prof = np.vstack([prof, prof[:1]])
+        k, s = len(prof), self.sections
+        ang = 2 * np.pi * np.arange(s) / s
+        verts = np.stack([prof[:, 0:1] * np.cos(ang), prof[:, 0:1] * np.sin(ang),
+                          np.repeat(prof[:, 1:2], s, axis=1)], axis=2).reshape(-1, 3)
+        idx = np.arange(k * s).reshape(k, s)
+        a, b = idx[:-1], np.roll(idx[:-1], -1, axis=1)
+        c, d = idx[1:], np.roll(idx[1:], -1, axis=1)
+        faces = np.concatenate([np.stack([a, b, d], -1).reshape(-1, 3), np.stack([a, d, c], -1).reshape(-1, 3)])
+        mesh = TriMesh(verts, faces)
+        from .meshes import clean_mesh
+
+        state.add_domain(self.mesh, clean_mesh(mesh))   # welds the seam and the axis points
+        return True
