@@ -18,7 +18,9 @@ All per-round work is whole-array numpy on flat, padded grids; there is no per-p
 """
 from __future__ import annotations
 
+import functools
 import math
+import types
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,8 +44,8 @@ _SPLIT_BELOW = 0.25
 """Split all open sub-cells when fewer than this fraction of the round's darts became samples
 (measured: a lower value throws many wasted darts, a higher one creates many sub-cells)."""
 
-_TOUCH_SLACK = 1.0 + 1e-9
-"""Relative slack on r^2 when deciding which disks may touch a sub-cell (see ``_touches``)."""
+_DARTS_PER_SUBCELL = 1.0
+"""Mean darts per open sub-cell and round."""
 
 _ROUNDS_AT_FLOOR = 64
 """Dart rounds allowed once sub-cells cannot be split further (only float-degenerate slivers,
@@ -64,6 +66,7 @@ class _Grid:
     y1: float
     r: float
     r2: float
+    touch2: float
     side: float
     nx: int
     ny: int
@@ -71,9 +74,6 @@ class _Grid:
     px: np.ndarray = field(init=False)
     py: np.ndarray = field(init=False)
     cand_prio: np.ndarray = field(init=False)
-    cand_x: np.ndarray = field(init=False)
-    cand_y: np.ndarray = field(init=False)
-    won: np.ndarray = field(init=False)
     nbr: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
@@ -82,9 +82,6 @@ class _Grid:
         self.px = np.full(n, np.nan)
         self.py = np.full(n, np.nan)
         self.cand_prio = np.full(n, -1, dtype=np.int64)
-        self.cand_x = np.full(n, np.nan)
-        self.cand_y = np.zeros(n)
-        self.won = np.zeros(n, dtype=bool)
         d = np.arange(-_PAD, _PAD + 1)
         di, dj = np.meshgrid(d, d, indexing="ij")
         off = (di * self.stride + dj).ravel()
@@ -145,15 +142,16 @@ def _hits_sample(g: _Grid, cell: np.ndarray, x: np.ndarray, y: np.ndarray) -> np
     return ((dx * dx + dy * dy) < g.r2).any(axis=1) | ~np.isnan(g.px[cell])
 
 
-def _touches(sx, sy, lox, hix, loy, hiy, r2: float) -> np.ndarray:
+def _touches(sx, sy, lox, hix, loy, hiy, touch2: float) -> np.ndarray:
     """True where the open disk of radius r around (sx, sy) may meet the closed rectangle.
 
-    The slack keeps the test a superset of the exact one under rounding: a disk kept wrongly
-    only costs a distance test, one dropped wrongly could let a dart in too close.
+    ``touch2`` is r^2 padded by a few ulps of the coordinates (see ``_Grid``): a disk kept
+    wrongly only costs a distance test, one dropped wrongly could let a dart in too close
+    (a dart may sit an ulp outside its sub-cell after rounding).
     """
     dx = np.maximum(np.maximum(lox - sx, sx - hix), 0.0)
     dy = np.maximum(np.maximum(loy - sy, sy - hiy), 0.0)
-    return dx * dx + dy * dy < r2 * _TOUCH_SLACK
+    return dx * dx + dy * dy < touch2
 
 
 def _contains(sx, sy, lox, hix, loy, hiy, r2: float) -> np.ndarray:
@@ -195,36 +193,39 @@ class _Open:
                      self.pair_x[pm], self.pair_y[pm]).locate(g)
 
 
-def _link(g: _Grid, o: _Open, sx: np.ndarray, sy: np.ndarray, scell: np.ndarray):
+def _block_members(g: _Grid, sorted_cells: np.ndarray, centres: np.ndarray):
+    """All (k, m) with ``sorted_cells[m]`` in the 5x5 block (own cell excluded) around
+    ``centres[k]``, as two flat index arrays; ``sorted_cells`` must be non-decreasing."""
+    q = (centres[:, None] + g.nbr).ravel()
+    if q.size * 8 < g.px.size:  # few queries: binary search beats a full-grid histogram
+        lo = np.searchsorted(sorted_cells, q, "left")
+        cnt = np.searchsorted(sorted_cells, q, "right") - lo
+    else:
+        first = np.concatenate(([0], np.cumsum(np.bincount(sorted_cells, minlength=g.px.size))))
+        lo = first[q]
+        cnt = first[q + 1] - lo
+    member = np.repeat(lo - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
+    owner = np.repeat(np.arange(q.size) // g.nbr.size, cnt)
+    return owner, member
+
+
+def _link(g: _Grid, o: _Open, sx: np.ndarray, sy: np.ndarray, scell: np.ndarray, kern):
     """Pairs (sub-cell, new sample) for every open sub-cell in the 5x5 block of each new sample
-    whose rectangle the sample's disk touches (sub-cells of a cell are contiguous in ``o``)."""
-    first = np.concatenate(([0], np.cumsum(np.bincount(o.cell, minlength=g.px.size))))
-    q = (scell[:, None] + g.nbr).ravel()
-    lo, cnt = first[q], first[q + 1] - first[q]
-    sub = np.repeat(lo - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
-    src = np.repeat(np.repeat(np.arange(sx.size), g.nbr.size), cnt)
+    whose rectangle the sample's disk touches."""
+    if kern is not None:
+        first = np.concatenate(([0], np.cumsum(np.bincount(o.cell, minlength=g.px.size))))
+        return kern.link(first, scell, sx, sy, g.nbr, *o.box, g.touch2)
+    src, sub = _block_members(g, o.cell, scell)
     px, py = sx[src], sy[src]
-    t = _touches(px, py, *(b[sub] for b in o.box), g.r2)
+    t = _touches(px, py, *(b[sub] for b in o.box), g.touch2)
     return sub[t], px[t], py[t]
 
 
-def _split(g: _Grid, o: _Open) -> _Open:
-    """Four children per open sub-cell; each inherits those of the parent's touching disks that
-    touch it, and children outside the domain or inside one disk are dropped.
-
-    Children are the parent cut at its midlines, computed with the same formula as
-    ``_Grid.bounds``, so the containment test sees exactly the children's corners.
-    Quadrant q = 2 * (upper half) + (right half).
-    """
-    level = o.level + 1
-    hc = math.ldexp(g.side, -level)
-    mx = g.x0 + (2 * o.j + 1) * hc
-    my = g.y0 + (2 * o.i + 1) * hc
-    lox, hix, loy, hiy = o.box
-    yes = np.ones(mx.size, dtype=bool)
-    valid = (np.stack((yes, my < g.y1), axis=1)[:, :, None]
-             & np.stack((yes, mx < g.x1), axis=1)[:, None, :]).reshape(-1, 4)
+def _split_pairs(o: _Open, mx, my, valid, touch2: float, r2: float):
+    """numpy path of ``_split``: (child, x, y) for each parent pair touching a valid child, and
+    which children one disk contains."""
     s = o.pair_sub
+    lox, hix, loy, hiy = o.box
     near2, far2 = [], []  # per axis: (low child, high child) squared distances
     for lo, mid, hi, v in ((lox, mx, hix, o.pair_x), (loy, my, hiy, o.pair_y)):
         lo, mid, hi = lo[s], mid[s], hi[s]
@@ -237,72 +238,215 @@ def _split(g: _Grid, o: _Open) -> _Open:
     subs, xs, ys = [], [], []
     for q in range(4):
         qy, qx = q >> 1, q & 1
-        t = near2[1][qy] + near2[0][qx] < g.r2 * _TOUCH_SLACK
+        t = near2[0][qx] + near2[1][qy] < touch2
         t &= valid[s, q]
-        covered[s[t & (far2[1][qy] + far2[0][qx] <= g.r2)], q] = True
+        covered[s[t & (far2[0][qx] + far2[1][qy] <= r2)], q] = True
         subs.append(4 * s[t] + q)
         xs.append(o.pair_x[t])
         ys.append(o.pair_y[t])
+    return np.concatenate(subs), np.concatenate(xs), np.concatenate(ys), covered
+
+
+def _split(g: _Grid, o: _Open, kern) -> _Open:
+    """Four children per open sub-cell; each inherits those of the parent's touching disks that
+    touch it, and children outside the domain or inside one disk are dropped.
+
+    Children are the parent cut at its midlines, computed with the same formula as
+    ``_Grid.bounds``, so the containment test sees exactly the children's corners.
+    Quadrant q = 2 * (upper half) + (right half); children are numbered 4 * parent + q.
+    """
+    level = o.level + 1
+    hc = math.ldexp(g.side, -level)
+    mx = g.x0 + (2 * o.j + 1) * hc
+    my = g.y0 + (2 * o.i + 1) * hc
+    lox, hix, loy, hiy = o.box
+    yes = np.ones(mx.size, dtype=bool)
+    valid = (np.stack((yes, my < g.y1), axis=1)[:, :, None]
+             & np.stack((yes, mx < g.x1), axis=1)[:, None, :]).reshape(-1, 4)
+    if kern is None:
+        csub, cx, cy, covered = _split_pairs(o, mx, my, valid, g.touch2, g.r2)
+    else:
+        csub, cx, cy, covered = kern.split_pairs(o.pair_sub, o.pair_x, o.pair_y, lox, hix, loy, hiy,
+                                                 mx, my, valid.ravel(), g.touch2, g.r2)
+        covered = covered.reshape(-1, 4)
     q = np.arange(4)
     child = _Open(level, ((o.i << 1)[:, None] + (q >> 1)).ravel(), ((o.j << 1)[:, None] + (q & 1)).ravel(),
-                  np.concatenate(subs), np.concatenate(xs), np.concatenate(ys))
+                  csub, cx, cy)
     return child.keep(g, (valid & ~covered).ravel())
 
 
-def _settle(g: _Grid, o: _Open, x: np.ndarray, y: np.ndarray, prio: np.ndarray) -> np.ndarray:
-    """Insert a conflict-free subset of the darts; return the winners in acceptance order.
+def _darts(g: _Grid, o: _Open, rng: np.random.Generator):
+    """A Poisson number of uniform darts per open sub-cell (mean proportional to its area
+    inside the domain) in random order: i.i.d. uniform darts over the open region, which is
+    what makes the accepted sequence distributed exactly like sequential dart throwing.
 
-    A dart stays alive while no sample lies within r and its cell is free; among live darts
-    the highest priority of each cell is its representative, and a representative wins when
-    no representative of higher priority in the 5x5 block lies within r (Luby rounds). Winners
-    are pairwise >= r apart (of two conflicting ones the lower loses) and are inserted at once;
-    a losing representative dies when a representative near it won.
+    Returns dart sub-cell (non-decreasing), x, y and priority (a permutation).
     """
-    dx = o.pair_x - x[o.pair_sub]
-    dy = o.pair_y - y[o.pair_sub]
-    dead = np.zeros(x.size, dtype=bool)
-    dead[o.pair_sub[dx * dx + dy * dy < g.r2]] = True
-    alive = np.flatnonzero(~dead)
-    cell = o.cell
+    lox, hix, loy, hiy = o.box
+    full = math.ldexp(g.side, -o.level) ** 2
+    count = rng.poisson(_DARTS_PER_SUBCELL * ((hix - lox) * (hiy - loy) / full))
+    sub = np.repeat(np.arange(o.i.size), count)
+    u = rng.random((2, sub.size))
+    lox, hix, loy, hiy = (b[sub] for b in o.box)
+    x = np.minimum(lox + u[0] * (hix - lox), np.nextafter(g.x1, -math.inf))
+    y = np.minimum(loy + u[1] * (hiy - loy), np.nextafter(g.y1, -math.inf))
+    return sub, x, y, rng.permutation(sub.size)
+
+
+def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, prio: np.ndarray, kern) -> np.ndarray:
+    """Accept exactly the darts that sequential throwing in decreasing priority would accept;
+    return them in decreasing priority (the numba path does just that, one dart after another).
+
+    Darts within r of a sample (found through the sub-cell's touching disks) die. Then Luby
+    rounds: a live dart wins when it is the highest live dart of its cell and no live dart of
+    higher priority in its 5x5 block lies within r; winners are inserted together, and live
+    darts within r of a winner or in its cell die. This is the greedy independent set in
+    priority order, i.e. the sequential result, computed with whole-array steps.
+    """
+    cell = o.cell[sub]
+    if kern is not None:
+        return kern.settle(np.argsort(prio)[::-1], cell, x, y, g.px, g.py, g.nbr, g.r2)
+    count = np.bincount(sub, minlength=o.i.size)
+    start = np.cumsum(count) - count
+    k = count[o.pair_sub]  # each touching disk against every dart of its sub-cell
+    dart = np.repeat(start[o.pair_sub] - (np.cumsum(k) - k), k) + np.arange(int(k.sum()))
+    pair = np.repeat(np.arange(o.pair_sub.size), k)
+    dx = o.pair_x[pair] - x[dart]
+    dy = o.pair_y[pair] - y[dart]
+    dead = np.zeros(sub.size, dtype=bool)
+    dead[dart[dx * dx + dy * dy < g.r2]] = True
+    alive = np.flatnonzero(~dead)  # stays sorted by cell
     wins: list[np.ndarray] = [np.empty(0, dtype=np.int64)]
     while alive.size:
         c, p = cell[alive], prio[alive]
         np.maximum.at(g.cand_prio, c, p)
-        rep = g.cand_prio[c] == p
-        a, ca, pa = alive[rep], c[rep], p[rep]
-        g.cand_x[ca] = x[a]
-        g.cand_y[ca] = y[a]
-        nb = ca[:, None] + g.nbr
-        nprio = g.cand_prio[nb]
-        dx = g.cand_x[nb] - x[a, None]
-        dy = g.cand_y[nb] - y[a, None]
-        near = (dx * dx + dy * dy) < g.r2  # reset slots hold NaN: never near
-        lose = (near & (nprio > pa[:, None])).any(axis=1)
+        rep = np.flatnonzero(g.cand_prio[c] == p)
         g.cand_prio[c] = -1
-        g.cand_x[c] = np.nan
-        win = a[~lose]
-        win = win[np.argsort(-prio[win], kind="stable")]
+        owner, other = _block_members(g, c, c[rep])
+        d, e = alive[rep[owner]], alive[other]
+        dx = x[e] - x[d]
+        dy = y[e] - y[d]
+        blocked = np.zeros(rep.size, dtype=bool)
+        blocked[owner[(prio[e] > prio[d]) & (dx * dx + dy * dy < g.r2)]] = True
+        win = alive[rep[~blocked]]
         g.px[cell[win]] = x[win]
         g.py[cell[win]] = y[win]
         wins.append(win)
-        g.won[cell[win]] = True
-        still = a[lose][~(near[lose] & g.won[nb[lose]]).any(axis=1)]
-        g.won[cell[win]] = False
-        others = alive[~rep]
-        if others.size:
-            others = others[~_hits_sample(g, cell[others], x[others], y[others])]
-        alive = np.sort(np.concatenate((still, others)))
-    return np.concatenate(wins)
+        rest = alive[np.isnan(g.px[c])]
+        alive = rest[~_hits_sample(g, cell[rest], x[rest], y[rest])]
+    win = np.concatenate(wins)
+    return win[np.argsort(prio[win])[::-1]]
 
 
-def _darts(g: _Grid, o: _Open, rng: np.random.Generator):
-    """One uniform dart per open sub-cell (inside the half-open domain), random priorities."""
-    lox, hix, loy, hiy = o.box
-    u = rng.random((2, o.i.size))
-    x = np.minimum(lox + u[0] * (hix - lox), np.nextafter(g.x1, -math.inf))
-    y = np.minimum(loy + u[1] * (hiy - loy), np.nextafter(g.y1, -math.inf))
-    prio = rng.permutation(o.i.size)
-    return x, y, prio
+# --- optional numba accelerator -------------------------------------------------------------
+# Plain-Python bodies of the hot loops, compiled by ``_numba_kernels``; never run uncompiled
+# (the numpy functions above are the fallback). They evaluate the same float expressions as
+# the numpy path, so both give bit-identical samples (tests/test_poisson.py checks it).
+
+
+def _settle_loop(order, cell, x, y, px, py, nbr, r2):
+    """Sequential dart throwing in the given order; returns the accepted darts."""
+    out = np.empty(order.size, dtype=np.int64)
+    n = 0
+    for t in range(order.size):
+        d = order[t]
+        c = cell[d]
+        if px[c] == px[c]:  # cell already holds a sample
+            continue
+        ok = True
+        for k in range(nbr.size):
+            sx = px[c + nbr[k]]
+            if sx == sx:
+                dx = sx - x[d]
+                dy = py[c + nbr[k]] - y[d]
+                if dx * dx + dy * dy < r2:
+                    ok = False
+                    break
+        if ok:
+            px[c] = x[d]
+            py[c] = y[d]
+            out[n] = d
+            n += 1
+    return out[:n]
+
+
+def _link_loop(first, scell, sx, sy, nbr, lox, hix, loy, hiy, touch2):
+    """(sub-cell, x, y) for each open sub-cell in a new sample's block that its disk touches."""
+    total = 0
+    for s in range(scell.size):
+        for k in range(nbr.size):
+            q = scell[s] + nbr[k]
+            total += first[q + 1] - first[q]
+    sub = np.empty(total, dtype=np.int64)
+    px = np.empty(total)
+    py = np.empty(total)
+    n = 0
+    for s in range(scell.size):
+        vx = sx[s]
+        vy = sy[s]
+        for k in range(nbr.size):
+            q = scell[s] + nbr[k]
+            for m in range(first[q], first[q + 1]):
+                dx = max(max(lox[m] - vx, vx - hix[m]), 0.0)
+                dy = max(max(loy[m] - vy, vy - hiy[m]), 0.0)
+                if dx * dx + dy * dy < touch2:
+                    sub[n] = m
+                    px[n] = vx
+                    py[n] = vy
+                    n += 1
+    return sub[:n], px[:n], py[:n]
+
+
+def _split_loop(s, px, py, lox, hix, loy, hiy, mx, my, valid, touch2, r2):
+    """numba path of ``_split_pairs`` (same expressions, one parent pair at a time)."""
+    csub = np.empty(4 * s.size, dtype=np.int64)
+    cx = np.empty(4 * s.size)
+    cy = np.empty(4 * s.size)
+    covered = np.zeros(valid.size, dtype=np.bool_)
+    near = np.empty(4)
+    far = np.empty(4)
+    n = 0
+    for t in range(s.size):
+        p = s[t]
+        vx = px[t]
+        vy = py[t]
+        low_hi = min(mx[p], hix[p])
+        near[0] = max(max(lox[p] - vx, vx - low_hi), 0.0)
+        near[1] = max(max(mx[p] - vx, vx - hix[p]), 0.0)
+        far[0] = max(vx - lox[p], low_hi - vx)
+        far[1] = max(vx - mx[p], hix[p] - vx)
+        low_hi = min(my[p], hiy[p])
+        near[2] = max(max(loy[p] - vy, vy - low_hi), 0.0)
+        near[3] = max(max(my[p] - vy, vy - hiy[p]), 0.0)
+        far[2] = max(vy - loy[p], low_hi - vy)
+        far[3] = max(vy - my[p], hiy[p] - vy)
+        for q in range(4):
+            c = 4 * p + q
+            if not valid[c]:
+                continue
+            ax = near[q & 1]
+            ay = near[2 + (q >> 1)]
+            if ax * ax + ay * ay < touch2:
+                csub[n] = c
+                cx[n] = vx
+                cy[n] = vy
+                n += 1
+                ax = far[q & 1]
+                ay = far[2 + (q >> 1)]
+                if ax * ax + ay * ay <= r2:
+                    covered[c] = True
+    return csub[:n], cx[:n], cy[:n], covered
+
+
+@functools.cache
+def _numba_kernels():
+    """Compiled kernels (cached on disk by numba), or None when numba is not installed."""
+    try:
+        import numba
+    except ImportError:
+        return None
+    jit = numba.njit(cache=True, nogil=True)
+    return types.SimpleNamespace(settle=jit(_settle_loop), link=jit(_link_loop), split_pairs=jit(_split_loop))
 
 
 def poisson_disk_with_stats(
@@ -312,35 +456,42 @@ def poisson_disk_with_stats(
     *,
     origin: tuple[float, float] = (0.0, 0.0),
     max_points: int | None = None,
+    accelerate: bool | None = None,
 ) -> tuple[np.ndarray, dict]:
     """Like :func:`poisson_disk`, also returning counters: rounds, darts, deepest level,
-    sub-cells left open at the float floor, and a per-round trace (level, darts, accepted)."""
+    sub-cells left open at the float floor, a per-round trace (level, open sub-cells, darts,
+    accepted) and whether numba ran. ``accelerate``: None = numba when installed, False = pure
+    numpy, True = numba or PoissonDiskError. Both paths return identical arrays."""
     w, h, ox, oy, r, max_points = _validate(size, radius, origin, max_points)
+    kern = None if accelerate is False else _numba_kernels()
+    if accelerate and kern is None:
+        raise PoissonDiskError("poisson_disk: accelerate=True needs numba, which is not installed")
     side = r / math.sqrt(2.0)
-    g = _Grid(x0=ox, y0=oy, x1=ox + w, y1=oy + h, r=r, r2=r * r, side=side,
-              nx=max(1, math.ceil(w / side)), ny=max(1, math.ceil(h / side)))
+    coord_ulp = math.ulp(max(abs(ox), abs(oy), abs(ox + w), abs(oy + h), side))
+    g = _Grid(x0=ox, y0=oy, x1=ox + w, y1=oy + h, r=r, r2=r * r, touch2=(r + 16 * coord_ulp) ** 2 * (1 + 1e-12),
+              side=side, nx=max(1, math.ceil(w / side)), ny=max(1, math.ceil(h / side)))
     ii, jj = np.meshgrid(np.arange(g.ny, dtype=np.int64), np.arange(g.nx, dtype=np.int64), indexing="ij")
     o = _Open(0, ii.ravel(), jj.ravel(), np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)).locate(g)
-    coord_ulp = math.ulp(max(abs(g.x0), abs(g.x1), abs(g.y0), abs(g.y1), side))
     floor_rounds = 0
-    stats: dict = {"rounds": 0, "darts": 0, "level": 0, "leftover_subcells": 0, "trace": []}
+    stats: dict = {"rounds": 0, "darts": 0, "level": 0, "leftover_subcells": 0, "trace": [],
+                   "numba": kern is not None}
     out_x: list[np.ndarray] = []
     out_y: list[np.ndarray] = []
     n_out = 0
     limit = math.inf if max_points is None else max_points
     while o.i.size and n_out < limit:
-        x, y, prio = _darts(g, o, rng)
-        wins = _settle(g, o, x, y, prio)
+        sub, x, y, prio = _darts(g, o, rng)
+        wins = _settle(g, o, sub, x, y, prio, kern)
         take = wins[: int(min(limit - n_out, wins.size))]
         out_x.append(x[take])
         out_y.append(y[take])
         n_out += take.size
         stats["rounds"] += 1
-        stats["darts"] += o.i.size
-        stats["trace"].append((o.level, int(o.i.size), int(wins.size)))
-        rate = wins.size / o.i.size
+        stats["darts"] += sub.size
+        stats["trace"].append((o.level, int(o.i.size), int(sub.size), int(wins.size)))
+        rate = wins.size / max(sub.size, 1)
         closed = ~np.isnan(g.px[o.cell])  # cell taken
-        sub, sx, sy = _link(g, o, x[wins], y[wins], o.cell[wins])
+        sub, sx, sy = _link(g, o, x[wins], y[wins], o.cell[sub[wins]], kern)
         closed[sub[_contains(sx, sy, *(b[sub] for b in o.box), g.r2)]] = True  # inside a new disk
         o.add_pairs(sub, sx, sy)
         o = o.keep(g, ~closed)
@@ -352,7 +503,7 @@ def poisson_disk_with_stats(
                 stats["leftover_subcells"] = int(o.i.size)
                 break
         elif rate < _SPLIT_BELOW:
-            o = _split(g, o)
+            o = _split(g, o, kern)
     stats["level"] = o.level
     if not out_x:
         return np.empty((0, 2)), stats
