@@ -156,8 +156,8 @@ def base_surface(kind: str, shape: tuple[int, int], spacing: float, rng: np.rand
         f = smooth(midpoint_displacement(shape, hurst, rng), smoothness)
         if kind == "mountain":
             r = np.hypot((xx + 0.5) / nx - 0.5, (yy + 0.5) / ny - 0.5) / 0.5
-            dome = np.clip(1.0 - r ** 2, 0.0, None)
-            f = dome * (1.0 + 0.6 * f) + 0.15 * f
+            dome = np.exp(-(r / 0.55) ** 2)            # smooth: no ring where a clipped dome ends
+            f = dome * (1.0 + 0.5 * f) + 0.12 * f
             f = f - f.min()
             f = f / f.max() if f.max() > 0 else f
         z += amplitude * f

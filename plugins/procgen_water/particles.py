@@ -22,7 +22,9 @@ Choices for the thesis's unstated equations (the thesis gives the rules in words
   dE = erosion_rate * (w/cap - theta)+ / (1 - theta) * (V + w), the liquid involved being the
   drop plus the water already released in the cell; capped by the thickness present, by the
   drop's sediment capacity (optional, k V speed max(slope, min_slope): classic terrain
-  erosion) and by the concentration limit S <= max_concentration V.  Water held in eroded
+  erosion) and by the concentration limit S <= max_concentration V.  With a capacity, a drop
+  never erodes more than the height it just descended, and a drop moving uphill first fills
+  the hollow it leaves (the usual particle-erosion rules that stop self-dug pits).  Water held in eroded
   solid beyond the new capacity is released into the eroding drops.
 * one sediment type per drop: the first layer it erodes; it erodes only that material.
   Deposits rejoin their source layer (so deposited patina renders as thin patina), and are
@@ -47,7 +49,7 @@ import numpy as np
 
 from procgen.errors import InputError
 
-Footprint = Literal["cell", "bilinear"]
+Footprint = Literal["cell", "bilinear", "disc"]
 
 
 @dataclass
@@ -69,6 +71,7 @@ class WaterParams:
     deposition_rate: float = 0.3
     max_concentration: float = 1.0
     footprint: Footprint = "cell"
+    brush_radius: float = 2.5
     erode_stabilised: bool = False
 
 
@@ -271,13 +274,24 @@ def release_excess(s: Surface) -> float:
     return tot
 
 
-def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray) -> tuple[Drops, np.ndarray]:
-    """Advance moving drops one step; drain those that leave.  Returns (drops, speed)."""
+def _height_at(h: np.ndarray, pos: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    cells, w = _bilinear_corners(pos, shape)
+    return np.sum(h[cells] * w, axis=1)
+
+
+def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray
+         ) -> tuple[Drops, np.ndarray, np.ndarray]:
+    """Advance moving drops one step; drain those that leave.
+
+    Returns (drops, speed, dh) with dh the change of surface height under each drop (0 for
+    drops that did not move).
+    """
     ny, nx = s.shape
     m = np.flatnonzero(d.moving)
     speed = np.hypot(d.vel[:, 0], d.vel[:, 1])
+    dh = np.zeros(len(d))
     if m.size == 0:
-        return d, speed
+        return d, speed, dh
     pos = d.pos[m]
     cells4, w4 = _bilinear_corners(pos, s.shape)
     gxi = np.sum(gx.ravel()[cells4] * w4, axis=1)
@@ -305,6 +319,9 @@ def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray) -
         v[over] *= (vmax / sp[over])[:, None]
         sp = np.minimum(sp, vmax)
     new_pos = pos + v / s.spacing
+    h = s.height()
+    dh[m] = _height_at(h, np.clip(new_pos, 0, np.array([nx, ny]) * (1 - 1e-12)), s.shape) \
+        - _height_at(h, pos, s.shape)
     age = d.age[m] + 1
     stop = (sp < p.stable_speed * s.spacing) & (amag <= grip)
     if p.max_age > 0:
@@ -324,12 +341,32 @@ def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray) -
         keep_mask[gone] = False
         d = d.take(keep_mask)
         speed = speed[keep_mask]
-    return d, speed
+        dh = dh[keep_mask]
+    return d, speed, dh
 
 
-def _footprint(pos: np.ndarray, shape: tuple[int, int], mode: Footprint) -> tuple[np.ndarray, np.ndarray]:
+def _disc_offsets(radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r = int(np.ceil(radius))
+    oy, ox = np.mgrid[-r:r + 1, -r:r + 1]
+    w = np.clip(radius - np.hypot(ox, oy), 0.0, None)
+    keep = w > 0
+    return oy[keep], ox[keep], w[keep]
+
+
+def _footprint(pos: np.ndarray, shape: tuple[int, int], mode: Footprint, radius: float = 2.5
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Cells (n, k) and weights (n, k) summing to 1 that a drop erodes from / deposits on."""
     if mode == "bilinear":
         return _bilinear_corners(pos, shape)
+    if mode == "disc":
+        ny, nx = shape
+        oy, ox, w = _disc_offsets(radius)
+        ix = np.floor(pos[:, 0]).astype(np.int64)[:, None] + ox[None, :]
+        iy = np.floor(pos[:, 1]).astype(np.int64)[:, None] + oy[None, :]
+        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        ww = np.where(inside, w[None, :], 0.0)
+        ww /= ww.sum(axis=1, keepdims=True)
+        return np.where(inside, iy * nx + ix, 0), ww
     return _cell_of(pos, shape)[:, None], np.ones((len(pos), 1))
 
 
@@ -339,7 +376,7 @@ def _deposit(s: Surface, d: Drops, idx: np.ndarray, amount: np.ndarray, p: Water
     idx, amount = idx[sel], amount[sel]
     if idx.size == 0:
         return
-    cells, w = _footprint(d.pos[idx], s.shape, p.footprint)
+    cells, w = _footprint(d.pos[idx], s.shape, p.footprint, p.brush_radius)
     layer = np.repeat(d.kind[idx], cells.shape[1])
     if np.any(layer < 0):
         raise AssertionError("a drop carrying sediment has no sediment kind")
@@ -352,7 +389,7 @@ def _deposit(s: Surface, d: Drops, idx: np.ndarray, amount: np.ndarray, p: Water
 
 
 def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.ndarray,
-             gy: np.ndarray) -> Drops:
+             gy: np.ndarray, dh: np.ndarray | None = None) -> Drops:
     """Absorption, deposition, erosion for every drop with water; removes empty drops."""
     n = len(d)
     if n == 0:
@@ -392,7 +429,7 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
         ok[ok] &= s.erodible[cand[ok]]
         ei, cand = ei[ok], cand[ok]
     if ei.size:
-        cells, wts = _footprint(d.pos[ei], s.shape, p.footprint)
+        cells, wts = _footprint(d.pos[ei], s.shape, p.footprint, p.brush_radius)
         k = cells.shape[1]
         pc = cells.ravel()
         pl = np.repeat(cand, k)
@@ -413,6 +450,9 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
             slope = np.hypot(gx.ravel()[cell[ei]], gy.ravel()[cell[ei]])
             capd = p.sediment_capacity * d.volume[ei] * speed[ei] * np.maximum(slope, p.min_slope)
             room = np.minimum(room, capd - d.sediment[ei])
+        if p.sediment_capacity is not None and dh is not None:
+            # never dig deeper than the drop just went down (no self-dug pits)
+            room = np.minimum(room, np.maximum(-dh[ei], 0.0) * a)
         room = np.maximum(room, 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             lim = np.where(per_drop > room, room / np.where(per_drop > 0, per_drop, 1.0), 1.0)
@@ -451,8 +491,11 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
     if p.sediment_capacity is not None:
         slope = np.hypot(gx.ravel()[cell], gy.ravel()[cell])
         capd = p.sediment_capacity * d.volume * speed * np.maximum(slope, p.min_slope)
-        capd = np.where(d.moving, capd, 0.0)
         extra = np.maximum(d.sediment - capd, 0.0) * p.deposition_rate
+        extra = np.where(d.moving, extra, d.sediment)      # a stopped drop lays its whole load
+        if dh is not None:
+            # a drop that climbed out of a hollow first fills it (up to what it carries)
+            extra = np.maximum(extra, np.minimum(np.maximum(dh, 0.0) * a, d.sediment))
         _deposit(s, d, np.flatnonzero(extra > 0), extra[extra > 0], p)
     # --- empty drops leave (they deposited everything above) ------------------------------
     alive = d.volume > 0
@@ -488,10 +531,10 @@ def step(s: Surface, d: Drops, p: WaterParams) -> Drops:
     """One time step: move, interact, evaporate; record moving-drop visits in ``path``."""
     release_excess(s)
     gx, gy = surface_gradient(s)
-    d, speed = move(s, d, p, gx, gy)
+    d, speed, dh = move(s, d, p, gx, gy)
     if np.any(d.moving):
         s.path += np.bincount(_cell_of(d.pos[d.moving], s.shape), minlength=s.ncell)
-    d = interact(s, d, p, speed, gx, gy)
+    d = interact(s, d, p, speed, gx, gy, dh)
     evaporate(s, p, gx, gy)          # start-of-step slope: the area changes little in a step
     return d
 

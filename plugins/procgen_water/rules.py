@@ -136,7 +136,8 @@ class WaterDrops(RuleBase):
     min_slope: float = param(_WP.min_slope, ge=0.0, doc="slope floor in the capacity")
     deposition_rate: float = param(_WP.deposition_rate, ge=0.0, le=1.0, doc="share of over-capacity load dropped per step")
     max_concentration: float = param(_WP.max_concentration, gt=0.0, le=1.0, doc="max sediment volume / water volume")
-    footprint: str = param("cell", choices=("cell", "bilinear"), doc="cells a drop erodes/deposits on")
+    footprint: str = param("cell", choices=("cell", "bilinear", "disc"), doc="cells a drop erodes/deposits on")
+    brush_radius: float = param(_WP.brush_radius, gt=0.5, le=8.0, units="cells", doc="radius of the 'disc' footprint")
     erode_stabilised: bool = param(False, doc="stabilised drops keep eroding")
     depth_gain: float = param(1.0, gt=0.0, doc="scale of water__depth (drop volume per area)")
 
