@@ -181,7 +181,7 @@ def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick
             if r.status == "failed":
                 body = f'<p class="err">failed: {html.escape(r.error)}</p>'
             else:
-                imgs = "".join(f'<a href="{base}/{html.escape(f)}"><img loading="lazy" src="{base}/{html.escape(f)}" '
+                imgs = "".join(f'<a href="{base}/{html.escape(f)}"><img src="{base}/{html.escape(f)}" '
                                f'alt="{html.escape(f)}"></a>' for f in _thumbs(r.files))
                 links = " ".join(f'<a href="{base}/{html.escape(f)}">{html.escape(f)}</a>'
                                  for f in r.files if not f.startswith("frames/"))
@@ -205,6 +205,14 @@ body {{ font-family: sans-serif; margin: 1.5em; background: #f4f4f2; color: #222
 <h1>procgen gallery{' (quick)' if quick else ''}</h1>
 <div class="grid">
 {chr(10).join(cards)}
-</div></body></html>
+</div>
+<script>
+// lets a headless browser (and a curious reader) check that every thumbnail decoded
+window.addEventListener("load", () => {{
+  const imgs = Array.from(document.images);
+  document.body.dataset.images = imgs.length;
+  document.body.dataset.broken = imgs.filter(i => !(i.complete && i.naturalWidth > 0)).length;
+}});
+</script></body></html>
 """
     write(out / "index.html", page)
