@@ -125,7 +125,7 @@ def test_tables_lookup_and_rejects_bad_rows():
 
 
 def test_bad_parameters_are_rejected():
-    for kw, word in [(dict(v_min=0.0), "v_min"), (dict(g_min=30.0, g_max=40.0, t_max=37.5), "g_min"),
+    for kw, word in [(dict(v_min=0.0), "v_min"), (dict(g_min=30.0, g_max=37.5, t_max=37.5), "g_max"),
                      (dict(w_s=1.5), "w_s"), (dict(details="spline"), "details")]:
         with pytest.raises(ValueError, match=word):
             small_cfg(**kw).check()

@@ -55,9 +55,9 @@ class GrowthConfig:
             raise ValueError(f"t_max = {self.t_max:g} is below t_min = {self.t_min:g}")
         if self.g_max < self.g_min:
             raise ValueError(f"g_max = {self.g_max:g} is below g_min = {self.g_min:g}")
-        if not self.g_min > self.t_max:
-            raise ValueError(f"g_min = {self.g_min:g} must exceed t_max = {self.t_max:g} "
-                             "(a cluster reset past its allowed growth would stop at once)")
+        if not self.g_max > self.t_max:
+            raise ValueError(f"g_max = {self.g_max:g} must exceed t_max = {self.t_max:g} "
+                             "(every cluster reset would start past its allowed growth)")
         if self.details not in ("circular", "linear"):
             raise ValueError(f"details = {self.details!r}: expected 'circular' or 'linear'")
         if self.base not in ("blend", "sum", "off"):

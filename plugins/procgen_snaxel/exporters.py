@@ -63,12 +63,21 @@ def cloud_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, fi
 
 
 # -- process figure (nested contours, one colour per curve) -------------------------------------
+def _crop_box(dom: Polylines, pad: float) -> tuple[float, float, float, float]:
+    """The lines' bounding box grown by ``pad`` of its size, kept inside the domain."""
+    (x0, y0), (x1, y1) = dom.points.min(0), dom.points.max(0)
+    size = max(x1 - x0, y1 - y0)
+    bx0, bx1, by0, by1 = _box(dom)
+    return (max(bx0, x0 - pad * size), min(bx1, x1 + pad * size), max(by0, y0 - pad * size), min(by1, y1 + pad * size))
+
+
 def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 800,
                 background: str | None = "#ffffff", fill: str | None = "#eef2f7", stroke_width: float = 0.9,
-                title: str = "") -> bytes:
-    """Earlier snake positions as nested contours, each curve in its own colour (Figs 3.11-3.22)."""
+                crop: bool = True, title: str = "") -> bytes:
+    """Earlier snake positions as nested contours, each curve in its own colour (Figs 3.11-3.22);
+    ``crop`` frames the cloud instead of the whole domain."""
     dom = _need(domain, "cloud_process_svg", "snaxel__curve")
-    dwg, group, px = new_drawing(_box(dom), width, background)
+    dwg, group, px = new_drawing(_crop_box(dom, 0.04) if crop else _box(dom), width, background)
     curve = dom["snaxel__curve"]
     if fill and dom.n_lines:
         group.add(dwg.path(d=path_data(dom.line(dom.n_lines - 1), True), fill=fill, stroke="none"))

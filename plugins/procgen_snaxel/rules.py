@@ -184,7 +184,8 @@ class GrowCloud(GrowthParams):
                                          "{cloud}_view": "Polylines"}
 
     cloud: str = param("cloud", doc="name of the Polylines holding the cloud outline")
-    publish_every: int = param(1, ge=1, doc="refresh {cloud} every K steps (frames read it)")
+    publish_every: int = param(0, ge=0, doc="refresh {cloud} every K steps; set it to frames.every "
+                               "when the recipe writes frames (0: only at the end, saves ~10% time)")
     view_window: list[float] | None = param(None, doc="[x0, y0, x1, y1] of the Figure 1.2 close-up; None: auto")
 
     def setup(self, state: State) -> None:
@@ -199,7 +200,7 @@ class GrowCloud(GrowthParams):
 
     def step(self, state: State) -> bool:
         changed = self._growth.step()
-        if changed and self._growth.stats.steps % self.publish_every == 0:
+        if changed and self.publish_every and self._growth.stats.steps % self.publish_every == 0:
             self._publish(state)
         return changed
 

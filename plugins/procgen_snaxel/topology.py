@@ -70,25 +70,23 @@ def build_topology(points: np.ndarray, faces: np.ndarray) -> Topology:
     src = tri.ravel()
     dst = tri[:, [1, 2, 0]].ravel()
     n = len(pts)
-    key = src * n + dst
-    if len(np.unique(key)) != len(key):
+    key = np.sort(src * n + dst)
+    if np.any(key[1:] == key[:-1]):
         raise InputError("snaxel tessellation: a directed edge is shared by two triangles (non-manifold)")
     rev = dst * n + src
-    boundary_half = ~np.isin(rev, key)
+    at = np.minimum(np.searchsorted(key, rev), len(key) - 1)
+    boundary_half = key[at] != rev
     hull = np.zeros(n, bool)
     hull[src[boundary_half]] = True
     hull[dst[boundary_half]] = True
-    # undirected neighbour lists, both directions, unique
-    both_s = np.concatenate([src, dst])
-    both_d = np.concatenate([dst, src])
-    ukey = np.unique(both_s * n + both_d)
-    s, d = ukey // n, ukey % n
-    ang = np.arctan2(pts[d, 1] - pts[s, 1], pts[d, 0] - pts[s, 0])
-    order = np.lexsort((ang, s))
+    # directed neighbour lists: every half-edge plus the reverse of each boundary half-edge
+    s = np.concatenate([src, dst[boundary_half]])
+    d = np.concatenate([dst, src[boundary_half]])
+    ang = np.arctan2(pts[d, 1] - pts[s, 1], pts[d, 0] - pts[s, 0]) + np.pi     # in [0, 2 pi]
+    order = np.argsort(s * 8.0 + ang)        # by vertex, then CCW angle (angles < 8)
     s, d = s[order], d[order]
     ptr = np.zeros(n + 1, np.int64)
-    np.add.at(ptr, s + 1, 1)
-    ptr = np.cumsum(ptr)
+    ptr[1:] = np.cumsum(np.bincount(s, minlength=n))
     und = s < d
     elen = np.hypot(*(pts[d[und]] - pts[s[und]]).T)
     return Topology(points=pts, faces=tri, ring_ptr=ptr, ring=d.astype(np.int64), hull=hull,

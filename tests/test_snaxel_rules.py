@@ -1,0 +1,219 @@
+"""Snaxel clouds through procgen: recipes, outputs other tools read, reports, bad input."""
+from __future__ import annotations
+
+import io
+import json
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from shapely.geometry import LineString, Polygon
+
+from procgen import RecipeError, run
+from procgen.recipes import load_recipe
+
+SVG = "{http://www.w3.org/2000/svg}"
+
+SMALL = """
+[recipe]
+name = "small_cloud"
+seed = 3
+
+[[steps]]
+rule = "points.poisson_disk"
+params = {{ domain = "points", width = 300.0, height = 300.0, radius = 2.0 }}
+
+[[steps]]
+rule = "mesh.delaunay"
+params = {{ points = "points", mesh = "tessellation" }}
+
+[[steps]]
+rule = "{rule}"
+{until}
+[steps.params]
+{params}
+
+{outputs}
+"""
+
+# the thesis's Table 4.5 / Table 4.2 row 4.2(e) scaled by 1/4 to a 300-unit domain
+BASE = dict(bounds=[0.0, 0.0, 300.0, 300.0], table=[[0, 12.5, 100], [12.5, 37.5, 250], [37.5, 50, 375], [50, 6.25]],
+            t_max=37.5, g_min=60.0, g_max=62.5, n_c=3, c_min=1.5, margin=5.0)
+
+
+def toml_value(v) -> str:
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    return repr(v)
+
+CLOUD_OUTPUTS = """
+[[outputs]]
+domain = "cloud"
+format = "cloud_svg"
+file = "cloud.svg"
+
+[[outputs]]
+domain = "cloud_history"
+format = "cloud_process_svg"
+file = "process.svg"
+
+[[outputs]]
+domain = "cloud_view"
+format = "cloud_view_svg"
+file = "view.svg"
+
+[[outputs]]
+domain = "cloud_history"
+format = "cloud_gif"
+file = "growth.gif"
+
+[[outputs]]
+domain = "cloud_history"
+format = "cloud_anim_svg"
+file = "growth.svg"
+"""
+
+
+def recipe_file(tmp_path, extra: dict | None = None, rule: str = "snaxel.grow", outputs: str = CLOUD_OUTPUTS,
+                name: str = "r.toml"):
+    until = 'until = "stable"\nmax_iterations = 20000' if rule == "snaxel.grow" else ""
+    params = dict(BASE, **(extra or {}))
+    p = tmp_path / name
+    p.write_text(SMALL.format(rule=rule, until=until, outputs=outputs,
+                              params="\n".join(f"{k} = {toml_value(v)}" for k, v in params.items())))
+    return p
+
+
+def grow(tmp_path, host, extra: dict | None = None, seed: int | None = None, out: str = "out"):
+    rec = load_recipe(recipe_file(tmp_path, extra), host)
+    return run(rec, host, seed=seed, out_dir=tmp_path / out, progress=False)
+
+
+def cloud_path(svg: bytes) -> ET.Element:
+    root = ET.fromstring(svg)
+    paths = list(root.iter(SVG + "path"))
+    assert len(paths) == 1, "the cloud must be one path"
+    return root, paths[0]
+
+
+def test_cloud_svg_is_one_closed_path_other_tools_render(tmp_path, host):
+    import cairosvg
+    from PIL import Image
+
+    res = grow(tmp_path, host)
+    svg = (tmp_path / "out" / "cloud.svg").read_bytes()
+    root, path = cloud_path(svg)
+    d = path.get("d")
+    assert d.startswith("M") and d.rstrip().endswith("Z")
+    assert [float(x) for x in root.get("viewBox").split()] == [0.0, -300.0, 300.0, 300.0]
+    # one vertex per snaxel: N_s reported in run.json matches the path
+    reports = json.loads((tmp_path / "out" / "run.json").read_text())["reports"]
+    assert reports["N_s"] == d.count(" L") + 1 and reports["N_v"] == res.state.get("tessellation").n_vertices
+    # rasterised by cairo: the cloud interior is white, the corner is sky
+    png = cairosvg.svg2png(bytestring=svg, output_width=300, output_height=300)
+    img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+    cloud = res.state.get("cloud").line(0)
+    poly = Polygon(cloud)
+    inner = poly.representative_point()
+    assert tuple(img[int(300 - inner.y), int(inner.x)]) == (255, 255, 255)
+    assert tuple(img[2, 2]) == (0x8F, 0xB8, 0xE0)
+    coverage = (img[:, :, 0].astype(float) - 0x8F) / (255 - 0x8F)      # antialiased edge pixels count partly
+    assert coverage.sum() == pytest.approx(poly.area, rel=0.01)
+
+
+def test_same_seed_byte_identical_other_seed_differs(tmp_path, host):
+    grow(tmp_path, host, seed=5, out="a")
+    grow(tmp_path, host, seed=5, out="b")
+    grow(tmp_path, host, seed=6, out="c")
+    for name in ("cloud.svg", "process.svg", "growth.gif"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+    assert (tmp_path / "a" / "cloud.svg").read_bytes() != (tmp_path / "c" / "cloud.svg").read_bytes()
+
+
+def test_process_view_and_animations(tmp_path, host):
+    from PIL import Image
+
+    res = grow(tmp_path, host)
+    hist = res.state.get("cloud_history")
+    assert hist.n_lines >= 5 and np.all(np.diff(hist["snapshot__step"]) > 0)
+    polys = [Polygon(hist.line(i)) for i in range(hist.n_lines)]
+    assert all(p.is_valid for p in polys)
+    assert all(a.buffer(-1e-6).within(b) for a, b in zip(polys, polys[1:]))      # nested contours
+    proc = ET.fromstring((tmp_path / "out" / "process.svg").read_bytes())
+    strokes = {p.get("stroke") for p in proc.iter(SVG + "path")} - {None, "none"}
+    assert len(strokes) >= 5                                               # one colour per curve
+    view = (tmp_path / "out" / "view.svg").read_text()
+    assert "#d42020" in view and "#ffd21f" in view and "#2451c8" in view    # Fig 1.2 colour code
+    gif = Image.open(tmp_path / "out" / "growth.gif")
+    assert gif.n_frames == hist.n_lines
+    counts = []
+    for k in (0, gif.n_frames - 1):
+        gif.seek(k)
+        counts.append(int((np.asarray(gif.convert("RGB")) == 255).all(axis=2).sum()))
+    assert counts[1] > 20 * max(counts[0], 1)
+    anim = ET.fromstring((tmp_path / "out" / "growth.svg").read_bytes())
+    assert len(list(anim.iter(SVG + "animate"))) == hist.n_lines
+
+
+def test_reports_name_the_thesis_quantities(tmp_path, host):
+    grow(tmp_path, host)
+    rep = json.loads((tmp_path / "out" / "run.json").read_text())["reports"]
+    for key in ("N_s", "N_v", "cloud.births", "cloud.merges", "cloud.holes", "cloud.clusters_grown", "cloud.steps"):
+        assert key in rep
+    assert rep["cloud.clusters_grown"] == 3 and len(rep["cloud.clusters"]) == 3
+    assert rep["cloud.finished"] is True
+
+
+@pytest.mark.parametrize("extra, words", [
+    (dict(table=[[0, 50, 400], [40, 100, 25]]), ["table row 1", "overlapping"]),
+    (dict(table=[[0, 50, 400], [100, 25], [50, 100, 30]]), ["table row 1"]),
+    (dict(v_min=0.0), ["v_min"]),
+    (dict(t_max=70.0), ["g_max", "t_max"]),
+    (dict(w_s=1.2), ["w_s"]),
+    (dict(strokes=[[10.0, 10.0, 320.0, 40.0]]), ["stroke 0", "outside the domain"]),
+    (dict(sketch_svg="{svg}"), ["no path"]),
+    (dict(sketch_svg="/nonexistent/sketch.svg"), ["not found"]),
+    (dict(source=[2.0, 150.0]), ["source", "margin"]),
+])
+def test_bad_input_is_one_line_error_before_compute(tmp_path, host, extra, words):
+    svg = tmp_path / "empty.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect width="5" height="5"/></svg>')
+    extra = {k: (str(svg) if v == "{svg}" else v) for k, v in extra.items()}
+    with pytest.raises(RecipeError) as err:
+        load_recipe(recipe_file(tmp_path, extra), host)
+    msg = str(err.value)
+    assert "\n" not in msg and all(w in msg for w in words), msg
+
+
+def test_sketch_from_shipped_svg_is_engulfed(tmp_path, host):
+    from procgen_snaxel.rules import resolve_sketch
+    from procgen_snaxel.sketch import strokes_from_svg
+
+    res = grow(tmp_path, host, dict(sketch_svg="mushroom.svg", c_t=1.0, n_c=1, t_max=0.0, g_min=20.0, g_max=20.0))
+    poly = Polygon(res.state.get("cloud").line(0))
+    strokes = strokes_from_svg(resolve_sketch("mushroom.svg"), (0.0, 300.0, 0.0, 300.0))
+    assert len(strokes) == 3
+    for s in strokes:
+        assert poly.contains(LineString(s))
+    rep = res.run_info["reports"]
+    assert rep["cloud.sketch_steps"] > 0
+
+
+def test_cloudscape_composites_clouds_back_to_front(tmp_path, host):
+    import cairosvg
+
+    outputs = '[[outputs]]\ndomain = "sky"\nformat = "cloudscape_svg"\nfile = "sky.svg"\n'
+    p = recipe_file(tmp_path, dict(scape="sky", n_clouds=3, n_c=2), rule="snaxel.cloudscape", outputs=outputs)
+    res = run(load_recipe(p, host), host, out_dir=tmp_path / "o", progress=False)
+    sky = res.state.get("sky")
+    assert sky.n_lines == 3 and list(sky["cloud__depth"]) == [0, 1, 2]
+    assert all(Polygon(sky.line(i)).is_valid for i in range(3))
+    svg = (tmp_path / "o" / "sky.svg").read_bytes()
+    root = ET.fromstring(svg)
+    assert len(list(root.iter(SVG + "clipPath"))) == 3
+    ids = [m for m in re.findall(rb'clip-path="url\(#cloud(\d)\)"', svg)]
+    assert ids == [b"0", b"1", b"2"]                      # farthest first
+    assert len(cairosvg.svg2png(bytestring=svg)) > 1000
