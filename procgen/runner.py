@@ -83,7 +83,6 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
     prov = provenance(recipe, seed, host)
     result = RunResult(state)
     step_info: list[dict[str, Any]] = []
-    pending_frames: list[tuple[OutputSpec, str]] = []
     frame_states: list[tuple[OutputSpec, bytes | dict[str, bytes], str]] = []
     for step in recipe.steps:
         rule = step.rule
@@ -92,6 +91,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
         try:
             rule.setup(state)
             changed_count = 0
+            done_iterations = 0
             stopped = "iterations"
             bar_total = None if step.until_stable else step.iterations
             with _progress(bar_total, f"[{step.index}] {rule.name}", show and step.iterations > 1) as bar:
@@ -102,6 +102,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
                     if not isinstance(changed, (bool,)) and type(changed).__name__ != "bool_":
                         raise PluginError(f"{step.where}: step() must return a bool, got {type(changed).__name__}")
                     changed = bool(changed)
+                    done_iterations = it + 1
                     rec = StepRecord(step.index, rule.name, it, changed, time.perf_counter() - t0)
                     state.records.append(rec)
                     changed_count += changed
@@ -123,10 +124,8 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
         except ProcgenError as exc:
             raise type(exc)(f"{step.where}: {exc}") if not str(exc).startswith(step.where) else exc
         step_info.append({"index": step.index, "rule": rule.name, "label": step.label,
-                          "params": rule.param_values(), "iterations": state.iteration if stopped != "stable"
-                          else it + 1, "changed_iterations": changed_count, "stopped": stopped,
+                          "params": rule.param_values(), "iterations": done_iterations, "changed_iterations": changed_count, "stopped": stopped,
                           "seconds": round(time.perf_counter() - t_start, 4)})
-    del pending_frames
     if out_dir is None:
         return result
     out_dir = Path(out_dir)
