@@ -168,6 +168,20 @@ def _thumbs(files: list[str]) -> list[str]:
     return (previews + [f for f in pics if f not in previews])[:4]
 
 
+def _params_html(run_json: Path) -> str:
+    """A collapsible list of every step's parameters, read back from the entry's run.json."""
+    try:
+        info = json.loads(run_json.read_text())
+    except (OSError, ValueError):
+        return ""
+    rows = []
+    for st in info.get("steps", []):
+        params = ", ".join(f"{k}={json.dumps(v, default=str)}" for k, v in sorted(st.get("params", {}).items()))
+        rows.append(f"<li><code>{html.escape(st.get('rule', ''))}</code> &times;{st.get('iterations', '')}: "
+                    f"{html.escape(params)}</li>")
+    return f'<details><summary>parameters</summary><ul class="params">{"".join(rows)}</ul></details>'
+
+
 def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick: bool) -> None:
     """The contact sheet: a card per entry+seed with thumbnails, figure, caption and links."""
     by = {(r.key, r.seed): r for r in results}
@@ -185,9 +199,10 @@ def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick
                                f'alt="{html.escape(f)}"></a>' for f in _thumbs(r.files))
                 links = " ".join(f'<a href="{base}/{html.escape(f)}">{html.escape(f)}</a>'
                                  for f in r.files if not f.startswith("frames/"))
-                rep = ", ".join(f"{k}={v}" for k, v in sorted(r.reports.items()))
-                body = f'<div class="thumbs">{imgs}</div><p class="files">{links}</p>' + \
-                       (f'<p class="rep">{html.escape(rep)}</p>' if rep else "")
+                rep = ", ".join(f"{k} = {v}" for k, v in sorted(r.reports.items()) if not isinstance(v, (dict, list)))
+                body = (f'<div class="thumbs">{imgs}</div><p class="files">{links}</p>'
+                        f'<p class="rep">{html.escape(rep)}{" &middot; " if rep else ""}'
+                        f'{r.seconds:.1f} s</p>{_params_html(out / base / "run.json")}')
             cards.append(f'<div class="card"><h2>{html.escape(e.title)}</h2>'
                          f'<p class="fig">{html.escape(e.figure)} &middot; recipe <code>{html.escape(e.recipe)}</code>'
                          f' &middot; seed {s}</p><p>{html.escape(e.caption)}</p>{body}</div>')
@@ -201,6 +216,7 @@ body {{ font-family: sans-serif; margin: 1.5em; background: #f4f4f2; color: #222
 .thumbs img {{ max-width: 48%; max-height: 220px; margin: 1px; background: #ddd; }}
 .fig, .files, .rep {{ font-size: .8em; color: #555; }}
 .err {{ color: #a00; }}
+details {{ font-size: .75em; color: #444; }} .params {{ padding-left: 1.2em; margin: .3em 0; }}
 </style></head><body>
 <h1>procgen gallery{' (quick)' if quick else ''}</h1>
 <div class="grid">
