@@ -13,7 +13,7 @@ from procgen.noise import fbm_spectral, midpoint_displacement
 from procgen.recipes import check_recipe
 from procgen.runner import run
 
-from .conftest import SHARED_MESHES
+from _paths import SHARED_MESHES
 
 
 def _run(host, steps, seed=1):

@@ -7,7 +7,7 @@ import trimesh
 
 from procgen import Grid, InputError, PointSet, Polylines, TriMesh
 
-from .conftest import SHARED_MESHES
+from _paths import SHARED_MESHES
 
 
 def test_field_size_is_checked():

@@ -8,7 +8,7 @@ from importlib import metadata
 from procgen.data import builtin_rules_dir, gallery_dir
 from procgen.recipes import list_recipes, load_recipe
 
-from .conftest import ROOT
+from _paths import ROOT
 
 
 def _declared_entry_points() -> dict[str, str]:
