@@ -83,7 +83,8 @@ def edge_half_planes(corners2d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     p0 = corners2d
     p1 = corners2d[:, [1, 2, 0]]
     e = p1 - p0
-    orient = np.sign(np.cross(e[:, 0], p0[:, 2] - p0[:, 0]))[:, None]   # +1 counter-clockwise
+    d = p0[:, 2] - p0[:, 0]
+    orient = np.sign(e[:, 0, 0] * d[:, 1] - e[:, 0, 1] * d[:, 0])[:, None]   # +1 counter-clockwise
     nrm = np.stack([-e[..., 1], e[..., 0]], axis=2) * orient[..., None]
     ln = np.linalg.norm(nrm, axis=2, keepdims=True)
     nrm = nrm / np.where(ln > 0, ln, 1.0)
