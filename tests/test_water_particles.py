@@ -1,0 +1,167 @@
+"""Water particles on the 2.5D surface: the digest's section 16.4 properties, step by step."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from procgen.materials import parse_materials
+from procgen_water import particles as P
+from procgen_water.layers import base_surface
+from procgen_water.reference import step_loop
+
+
+def _thesis_case(seed=3, n=400, crowd=60, evaporation=0.01, threshold=0.3):
+    """Absorbent non-erodible stone under an erodible absorbent patina patch on a slope."""
+    tab = parse_materials(["stone", {"preset": "red_patina", "erosion_rate": 0.05,
+                                     "weakness_threshold": threshold}])
+    ny, nx = 24, 20
+    rng = np.random.default_rng(seed)
+    base = base_surface("fbm", (ny, nx), 1.0, rng, amplitude=3.0, tilt_deg=20)
+    t = np.zeros((ny, nx, 2))
+    t[..., 0] = 0.5
+    t[4:16, 4:16, 1] = 0.3
+    s = P.make_surface(base, t, tab)
+    p = P.WaterParams(evaporation=evaporation, adhesion=0.2)
+    d = P.emit(s, p, rng, n, "uniform")
+    d.pos[:crowd] = d.pos[0]                 # many drops in one cell: the sharing must conserve
+    d.pos[crowd:2 * crowd] = np.array([10.5, 10.5])   # and a crowd on the patina patch
+    return s, d, p, tab
+
+
+def _capacity_case(seed=5, footprint="bilinear"):
+    """Classic terrain use: non-absorbent rock, sediment capacity, thick enough not to hole."""
+    tab = parse_materials(["rock"])
+    ny, nx = 24, 20
+    rng = np.random.default_rng(seed)
+    base = base_surface("fbm", (ny, nx), 1.0, rng, amplitude=4.0, tilt_deg=15)
+    s = P.make_surface(base, np.full((ny, nx, 1), 5.0), tab)
+    p = P.WaterParams(sediment_capacity=2.0, footprint=footprint, max_age=15, evaporation=0.0)
+    d = P.emit(s, p, rng, 300, "uniform")
+    d.pos[:40] = d.pos[0]
+    return s, d, p, tab
+
+
+@pytest.mark.parametrize("case", ["thesis", "capacity"])
+def test_ledgers_and_bounds_hold_at_every_step(case):
+    s, d, p, tab = _thesis_case() if case == "thesis" else _capacity_case()
+    baseline = float(s.thickness.sum() * s.cell_area)
+    emitted = float(s.emitted.sum())
+    assert emitted == pytest.approx(len(d) * p.drop_volume)
+    cap_per = tab.array("capacity")
+    for it in range(40):
+        if it == 10:
+            d = d.concat(P.emit(s, p, np.random.default_rng(it), 100, "top", 0.2))
+        d = P.step(s, d, p)
+        w = P.water_ledger(s, d)
+        sl = P.sediment_ledger(s, d, baseline)
+        assert w["error"] <= 1e-12 * w["emitted"], (it, w)
+        assert sl["error"] <= 1e-12 * baseline, (it, sl)
+        cap = cap_per[None, :] * s.thickness * s.cell_area
+        assert np.all(s.held >= 0) and np.all(s.held <= cap * (1 + 1e-12) + 1e-15)
+        assert np.all(s.thickness >= 0)
+        assert np.all(d.volume > 0)                      # empty drops are removed
+        assert np.all(d.sediment >= 0)
+        assert np.all(d.sediment <= p.max_concentration * d.volume * (1 + 1e-9) + 1e-15)
+        assert np.all((d.kind == -1) <= (d.sediment == 0))   # sediment always has a type
+    # something actually happened: erosion, deposition, drainage
+    assert s.deposit.sum() > 0 and s.drained_sediment.sum() > 0
+
+
+def test_non_erodible_layer_never_loses_thickness_and_erosion_needs_saturation():
+    s, d, p, tab = _thesis_case(evaporation=0.0, threshold=0.6)
+    theta = tab["red_patina"].weakness_threshold
+    cap_per = tab.array("capacity")
+    stone0 = s.thickness[:, 0].copy()
+    eroded_any = False
+    for _ in range(40):
+        before = s.thickness.copy()
+        d = P.step(s, d, p)
+        assert np.all(s.thickness[:, 0] >= stone0 - 1e-15)      # stone is absorbent, not erodible
+        lost = (s.thickness[:, 1] < before[:, 1] - 1e-15) & (s.thickness[:, 1] > 0)
+        if np.any(lost):
+            eroded_any = True
+            cap = cap_per[1] * s.thickness[lost, 1] * s.cell_area
+            sat = s.held[lost, 1] / cap
+            assert np.all(sat >= theta - 1e-9)          # only saturated (weak) cells eroded
+    assert eroded_any
+
+
+def test_dry_grid_without_drops_is_unchanged_and_drops_never_evaporate():
+    s, _, p, _ = _thesis_case()
+    snap = copy.deepcopy(s)
+    d = P.Drops.empty()
+    for _ in range(5):
+        d = P.step(s, d, p)
+    for k in ("thickness", "held", "deposit", "evaporated", "drained", "path", "base"):
+        assert np.array_equal(getattr(s, k), getattr(snap, k)), k
+    # non-absorbent surface: drops lose no water to the air, only to the edges
+    tab = parse_materials(["rock"])
+    s = P.make_surface(np.zeros((10, 10)), np.ones((10, 10, 1)), tab)
+    p = P.WaterParams(evaporation=0.5)
+    d = P.emit(s, p, np.random.default_rng(0), 50, "uniform")
+    for _ in range(5):
+        d = P.step(s, d, p)
+    assert s.evaporated.sum() == 0 and d.volume.sum() == pytest.approx(50.0)
+
+
+def test_evaporation_only_where_held_and_proportional_to_true_area():
+    tab = parse_materials(["stone"])
+    ny, nx = 8, 10
+    base = np.tile(np.arange(nx, dtype=float), (ny, 1))          # a 45-degree plane z = x
+    s = P.make_surface(base, np.ones((ny, nx, 1)), tab)
+    held = s.held.reshape(ny, nx)                               # a view of the (ncell, 1) array
+    held[:] = 0.3
+    held[::2] = 0.0                                             # every other row dry
+    p = P.WaterParams(evaporation=0.01)
+    P.step(s, P.Drops.empty(), p)
+    ev = s.evaporated.reshape(ny, nx)
+    assert np.all(ev[::2] == 0)
+    inner = ev[1::2, 1:-1]                                      # central differences: slope 1
+    assert np.allclose(inner, 0.01 * np.sqrt(2.0))
+    flat = P.make_surface(np.zeros((ny, nx)), np.ones((ny, nx, 1)), tab, held=np.full((ny, nx, 1), 0.3))
+    P.step(flat, P.Drops.empty(), p)
+    assert np.allclose(flat.evaporated, 0.01)
+
+
+def test_drops_on_a_45_degree_plane_run_down_the_slope():
+    tab = parse_materials([{"preset": "rock", "erosion_rate": 0.0}])
+    ny, nx = 60, 40
+    base = base_surface("tilt", (ny, nx), 1.0, None, tilt_deg=45.0)     # high at large y
+    s = P.make_surface(base, np.ones((ny, nx, 1)), tab)
+    p = P.WaterParams()
+    d = P.emit(s, p, np.random.default_rng(1), 500, "top", 0.2)
+    y0, x0 = d.pos[:, 1].mean(), d.pos[:, 0].mean()
+    for _ in range(10):
+        d = P.step(s, d, p)
+    assert len(d) == 500
+    assert d.pos[:, 1].mean() < y0 - 3.0                     # moved downhill (towards y = 0)
+    assert abs(d.pos[:, 0].mean() - x0) < 0.2                # not sideways
+    assert np.all(d.vel[:, 1] <= 0)
+
+
+@pytest.mark.parametrize("case,footprint", [("thesis", "cell"), ("capacity", "bilinear"),
+                                            ("capacity", "disc")])
+def test_batch_equals_one_drop_at_a_time_reference(case, footprint):
+    s1, d1, p, _ = _thesis_case() if case == "thesis" else _capacity_case(footprint=footprint)
+    s2, d2 = copy.deepcopy(s1), copy.deepcopy(d1)
+    for _ in range(20):
+        d1 = P.step(s1, d1, p)
+        d2 = step_loop(s2, d2, p)
+    assert len(d1) == len(d2)
+    for k in ("thickness", "held", "deposit", "evaporated", "drained", "drained_sediment", "path"):
+        assert np.allclose(getattr(s1, k), getattr(s2, k), rtol=1e-9, atol=1e-9), k
+    assert np.allclose(d1.pos, d2.pos, atol=1e-9) and np.allclose(d1.sediment, d2.sediment, atol=1e-9)
+    assert np.array_equal(d1.moving, d2.moving) and np.array_equal(d1.kind, d2.kind)
+
+
+def test_same_seed_same_arrays():
+    outs = []
+    for _ in range(2):
+        s, d, p, _ = _thesis_case(seed=11)
+        for _ in range(15):
+            d = P.step(s, d, p)
+        outs.append((s.thickness.copy(), s.held.copy(), d.pos.copy()))
+    for a, b in zip(*outs):
+        assert np.array_equal(a, b)

@@ -1,0 +1,98 @@
+"""The water rules end to end: recipes run, files other tools read, ledgers in run.json, errors."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from procgen import InputError, run
+from procgen.recipes import load_recipe
+
+SMALL = [
+    "steps.0.params.nx=40", "steps.0.params.ny=40", "steps.1.params.drops=3000",
+    "steps.1.iterations=40", "steps.1.frames.every=20",
+]
+
+
+def _run(host, tmp_path, name, overrides, seed=1):
+    rec = load_recipe(name, host, overrides)
+    return run(rec, host, seed=seed, out_dir=tmp_path, progress=False)
+
+
+def test_plate_2_8_writes_readable_files_and_balanced_ledgers(host, tmp_path):
+    res = _run(host, tmp_path, "terrain/plate-2-8", SMALL)
+    info = json.loads((tmp_path / "run.json").read_text())
+    rep = info["reports"]
+    err = rep["step1.water.max_relative_ledger_error"]
+    assert err["water"] < 1e-12 and err["sediment"] < 1e-12
+    wl = rep["step1.water.water_ledger"]
+    assert wl["emitted"] == pytest.approx(3000.0)
+    assert wl["drops"] + wl["held"] + wl["evaporated"] + wl["drained"] == pytest.approx(3000.0)
+    # 16-bit heightmap + sidecar, float NPY, colour PNG, OBJ with vertex colours, frames
+    im = Image.open(tmp_path / "height.png")
+    assert im.mode in ("I;16", "I;16B", "I") and im.size == (40, 40)
+    side = json.loads((tmp_path / "height.json").read_text())
+    q = np.asarray(im, dtype=float)
+    z = side["z_min"] + q / 65535 * (side["z_max"] - side["z_min"])
+    h = np.load(tmp_path / "height_f64.npy")
+    assert np.allclose(z, h, atol=(side["z_max"] - side["z_min"]) / 65535)
+    assert np.load(tmp_path / "thickness_f64.npy").shape == (40, 40, 2)
+    assert Image.open(tmp_path / "color.png").mode == "RGB"
+    import trimesh
+    mesh = trimesh.load(tmp_path / "surface.obj", process=False)
+    assert len(mesh.vertices) == 1600 and mesh.visual.kind == "vertex"
+    assert len({tuple(c) for c in mesh.visual.vertex_colors[:, :3]}) > 20
+    assert any(f.startswith("frames/step1/") for f in res.files)
+    for layer in (0, 1):
+        assert (tmp_path / f"layer{layer}_{['stone', 'patina'][layer]}_top.png").exists()
+
+
+def test_same_seed_same_bytes(host, tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    _run(host, a, "terrain/plate-2-8", SMALL)
+    _run(host, b, "terrain/plate-2-8", SMALL)
+    for f in ("height_f64.npy", "color.png", "surface.obj", "thickness_f64.npy"):
+        assert (a / f).read_bytes() == (b / f).read_bytes(), f
+    c = tmp_path / "c"
+    _run(host, c, "terrain/plate-2-8", SMALL, seed=2)
+    assert (a / "height_f64.npy").read_bytes() != (c / "height_f64.npy").read_bytes()
+
+
+def test_corrosion_recipe_runs_and_reports(host, tmp_path):
+    _run(host, tmp_path, "terrain/plate-2-1", ["steps.0.params.nx=48", "steps.0.params.ny=48",
+                                               "steps.2.iterations=20", "steps.2.params.seed_rate=0.002"])
+    rep = json.loads((tmp_path / "run.json").read_text())["reports"]["step2.corrosion"]
+    assert 0 < rep["new_seeds"] <= 6 and rep["attack_limit_violations"] == 0
+    assert 0 < rep["corroded_fraction"] < 1
+
+
+BAD = [
+    ('layers = ["coper"]', "did you mean 'copper'"),
+    ('layers = [{ preset = "rock", thickness = -1.0 }]', "thickness must be in"),
+    ('layers = [{ preset = "rock", capacity = -0.5 }]', "capacity must be >= 0"),
+    ('layers = [{ preset = "rock", opacity = 1.0 }]', "opacity must be in [0, 1)"),
+    ('layers = ["rock"], nx = 2', "nx"),
+    ('layers = [{ preset = "rock", thikness = 1.0 }]', "did you mean 'thickness'"),
+]
+
+
+@pytest.mark.parametrize("layers,msg", BAD)
+def test_bad_input_gives_one_line_errors_from_check(tmp_path, layers, msg):
+    f = tmp_path / "bad.toml"
+    f.write_text(f'[[steps]]\nrule = "water.surface"\nparams = {{ {layers} }}\n')
+    out = subprocess.run([sys.executable, "-m", "procgen.cli", "check", str(f)],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode != 0
+    lines = [ln for ln in out.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and msg in lines[0], out.stderr
+
+
+def test_unknown_layer_in_corrosion_is_a_one_line_input_error(host, tmp_path):
+    rec = load_recipe("terrain/plate-2-1", host, ["steps.0.params.nx=16", "steps.0.params.ny=16",
+                                                  "steps.2.params.metal=coper", "steps.2.iterations=2"])
+    with pytest.raises(InputError, match="no layer named 'coper' \\(did you mean 'copper'\\?\\)"):
+        run(rec, host, out_dir=None, progress=False)
