@@ -118,10 +118,11 @@ class Surface:
 
     def top_layer(self, cells: np.ndarray | slice = slice(None)) -> np.ndarray:
         """Index of the highest layer with thickness > 0 at ``cells`` (-1 where none: a hole)."""
-        present = self.thickness[cells] > 0
-        L = present.shape[1]
-        top = L - 1 - np.argmax(present[:, ::-1], axis=1)
-        return np.where(present.any(axis=1), top, -1)
+        t = self.thickness[cells]
+        top = np.full(t.shape[0], -1, dtype=np.int64)
+        for l in range(t.shape[1]):             # a handful of layers: one vector op each
+            top[t[:, l] > 0] = l
+        return top
 
     def capacity_of(self, cells: np.ndarray, layers: np.ndarray) -> np.ndarray:
         """Water a (cell, layer) can hold: capacity * thickness * cell area (0 for layer -1)."""
@@ -210,23 +211,25 @@ def _cell_of(pos: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return iy * nx + ix
 
 
-def _share(cells: np.ndarray, demand: np.ndarray, available: np.ndarray, n: int
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-cell totals capped by ``available`` (n,), shared back in proportion to demand.
+def _share(keys: np.ndarray, demand: np.ndarray, available: np.ndarray, n: int
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-key totals capped by ``available`` (given per entry, equal for equal keys), shared
+    back in proportion to demand.  Works on the touched keys only (not all ``n``).
 
-    Returns (granted per demand entry, granted total per cell).
+    Returns (granted per entry, touched keys, granted total per touched key).
     """
-    tot = np.bincount(cells, weights=demand, minlength=n)
-    got = np.minimum(tot, np.maximum(available, 0.0))
+    tot = np.bincount(keys, weights=demand, minlength=n)
+    tk = tot[keys]
+    got_e = np.minimum(tk, np.maximum(available, 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
-        frac = np.where(tot > 0, got / np.where(tot > 0, tot, 1.0), 0.0)
-    granted = demand * frac[cells]
-    return granted, got
+        granted = np.where(tk > 0, demand * (got_e / np.where(tk > 0, tk, 1.0)), 0.0)
+    uk, first = np.unique(keys, return_index=True)
+    return granted, uk, got_e[first]
 
 
-def surface_gradient(s: Surface) -> tuple[np.ndarray, np.ndarray]:
+def surface_gradient(s: Surface, h: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """dh/dx, dh/dy (ny, nx) of the top surface by central differences (one-sided at edges)."""
-    h = s.height().reshape(s.shape)
+    h = (s.height() if h is None else h).reshape(s.shape)
     gy, gx = np.gradient(h, s.spacing)
     return gx, gy
 
@@ -265,12 +268,15 @@ def emit(s: Surface, p: WaterParams, rng: np.random.Generator, n: int, mode: str
 
 def release_excess(s: Surface) -> float:
     """Water above a layer's capacity (after another rule thinned it) leaves as evaporation."""
-    cap = s.capacity[None, :] * s.thickness * s.cell_area
-    excess = np.maximum(s.held - cap, 0.0)
+    wet = np.flatnonzero(s.held.any(axis=1))
+    if wet.size == 0:
+        return 0.0
+    cap = s.capacity[None, :] * s.thickness[wet] * s.cell_area
+    excess = np.maximum(s.held[wet] - cap, 0.0)
     tot = float(excess.sum())
     if tot > 0:
-        s.held -= excess
-        s.evaporated += excess.sum(axis=1)
+        s.held[wet] -= excess
+        s.evaporated[wet] += excess.sum(axis=1)
     return tot
 
 
@@ -279,8 +285,8 @@ def _height_at(h: np.ndarray, pos: np.ndarray, shape: tuple[int, int]) -> np.nda
     return np.sum(h[cells] * w, axis=1)
 
 
-def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray
-         ) -> tuple[Drops, np.ndarray, np.ndarray]:
+def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray,
+         h: np.ndarray | None = None) -> tuple[Drops, np.ndarray, np.ndarray]:
     """Advance moving drops one step; drain those that leave.
 
     Returns (drops, speed, dh) with dh the change of surface height under each drop (0 for
@@ -319,7 +325,7 @@ def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray
         v[over] *= (vmax / sp[over])[:, None]
         sp = np.minimum(sp, vmax)
     new_pos = pos + v / s.spacing
-    h = s.height()
+    h = s.height() if h is None else h
     dh[m] = _height_at(h, np.clip(new_pos, 0, np.array([nx, ny]) * (1 - 1e-12)), s.shape) \
         - _height_at(h, pos, s.shape)
     age = d.age[m] + 1
@@ -409,10 +415,8 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
         sat = np.where(cap > 0, np.clip(w / np.where(cap > 0, cap, 1.0), 0, 1), 1.0)
         demand = d.volume[ai] * s.absorption_rate[l] * (1.0 - sat) / (1.0 + speed[ai] / p.speed_ref)
         flat = c * L + l
-        room = np.zeros(s.thickness.size)
-        room[flat] = cap - w                                 # same value for every drop of a cell
-        granted, got = _share(flat, demand, room, s.thickness.size)
-        s.held.ravel()[:] += got
+        granted, uk, got = _share(flat, demand, cap - w, s.thickness.size)
+        s.held.ravel()[uk] += got
         v_old = d.volume[ai].copy()
         d.volume[ai] = np.maximum(v_old - granted, 0.0)
         # deposition by concentration: the absorbed fraction of the drop leaves its sediment
@@ -458,20 +462,19 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
             lim = np.where(per_drop > room, room / np.where(per_drop > 0, per_drop, 1.0), 1.0)
         demand *= lim[pd]
         flat = pc * L + pl
-        avail = np.zeros(s.thickness.size)
-        avail[flat] = s.thickness[pc, pl] * a
-        granted, got = _share(flat, demand, avail, s.thickness.size)
-        hit = np.flatnonzero(got > 0)
+        granted, uk, got = _share(flat, demand, s.thickness[pc, pl] * a, s.thickness.size)
+        pos_ = got > 0
+        hit, got = uk[pos_], got[pos_]
         if hit.size:
             t_old = s.thickness.ravel()[hit]
-            t_new = np.maximum(t_old - got[hit] / a, 0.0)
+            t_new = np.maximum(t_old - got / a, 0.0)
             actual = (t_old - t_new) * a
             s.thickness.ravel()[hit] = t_new
             dep_old = s.deposit.ravel()[hit]
             s.deposit.ravel()[hit] = np.maximum(dep_old - (t_old - t_new), 0.0)
             # share the exact removed volume back to the pairs
             corr = np.zeros(s.thickness.size)
-            corr[hit] = actual / got[hit]
+            corr[hit] = actual / got
             granted = granted * corr[flat]
             # water held beyond the thinner layer's capacity goes into the eroding drops
             hc, hl = hit // L, hit % L
@@ -530,8 +533,9 @@ def evaporate(s: Surface, p: WaterParams, gx: np.ndarray, gy: np.ndarray) -> Non
 def step(s: Surface, d: Drops, p: WaterParams) -> Drops:
     """One time step: move, interact, evaporate; record moving-drop visits in ``path``."""
     release_excess(s)
-    gx, gy = surface_gradient(s)
-    d, speed, dh = move(s, d, p, gx, gy)
+    h = s.height()
+    gx, gy = surface_gradient(s, h)
+    d, speed, dh = move(s, d, p, gx, gy, h)
     if np.any(d.moving):
         s.path += np.bincount(_cell_of(d.pos[d.moving], s.shape), minlength=s.ncell)
     d = interact(s, d, p, speed, gx, gy, dh)

@@ -76,7 +76,7 @@ def step_loop(s: Surface, d: Drops, p: WaterParams) -> Drops:
     a = s.cell_area
     L = s.n_layers
     # release water above capacity
-    for c in range(s.ncell):
+    for c in np.flatnonzero(s.held.any(axis=1)):      # wet cells only (a dry cell has nothing)
         for l in range(L):
             if s.held[c, l] > 0:
                 ex = s.held[c, l] - _cap(s, c, l)
@@ -243,9 +243,7 @@ def step_loop(s: Surface, d: Drops, p: WaterParams) -> Drops:
     d.sediment = np.maximum(d.sediment, 0.0)
     # evaporation, top-most wet layer first
     if p.evaporation > 0:
-        for c in range(s.ncell):
-            if not any(s.held[c, l] != 0 for l in range(L)):
-                continue
+        for c in np.flatnonzero(s.held.any(axis=1)):
             budget = p.evaporation * a * math.sqrt(1 + gxf[c] ** 2 + gyf[c] ** 2)
             tot_e = 0.0
             for l in range(L - 1, -1, -1):
