@@ -75,6 +75,7 @@ class _Grid:
     py: np.ndarray = field(init=False)
     cand_prio: np.ndarray = field(init=False)
     nbr: np.ndarray = field(init=False)
+    half: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
         self.stride = self.nx + 2 * _PAD
@@ -86,6 +87,7 @@ class _Grid:
         di, dj = np.meshgrid(d, d, indexing="ij")
         off = (di * self.stride + dj).ravel()
         self.nbr = off[off != 0]  # 24 neighbours; the own cell is handled separately
+        self.half = off[off >= 0]  # own cell and the 12 "later" neighbours: each cell pair once
 
     def cell_of(self, i: np.ndarray, j: np.ndarray, level: int) -> np.ndarray:
         """Flat padded index of the level-0 cell holding sub-cell (i, j) of ``level``."""
@@ -193,20 +195,37 @@ class _Open:
                      self.pair_x[pm], self.pair_y[pm]).locate(g)
 
 
-def _block_members(g: _Grid, sorted_cells: np.ndarray, centres: np.ndarray):
-    """All (k, m) with ``sorted_cells[m]`` in the 5x5 block (own cell excluded) around
-    ``centres[k]``, as two flat index arrays; ``sorted_cells`` must be non-decreasing."""
-    q = (centres[:, None] + g.nbr).ravel()
-    if q.size * 8 < g.px.size:  # few queries: binary search beats a full-grid histogram
-        lo = np.searchsorted(sorted_cells, q, "left")
-        cnt = np.searchsorted(sorted_cells, q, "right") - lo
-    else:
-        first = np.concatenate(([0], np.cumsum(np.bincount(sorted_cells, minlength=g.px.size))))
-        lo = first[q]
-        cnt = first[q + 1] - lo
-    member = np.repeat(lo - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
-    owner = np.repeat(np.arange(q.size) // g.nbr.size, cnt)
-    return owner, member
+_CHUNK = 1 << 13
+"""Centres (or pairs) per vectorised batch: bounds the temporaries of block expansions
+(~25 pairs per centre, ~15 arrays each) and of ``_split_pairs`` to a few tens of MB."""
+
+
+class _CellIndex:
+    """Contiguous ranges of a non-decreasing array of cell indices, for block look-ups."""
+
+    def __init__(self, g: _Grid, sorted_cells: np.ndarray, queries: int):
+        self.cells = sorted_cells
+        self.first = None
+        if queries * 8 >= g.px.size:  # many queries: one histogram beats binary searches
+            self.first = np.concatenate(([0], np.cumsum(np.bincount(sorted_cells, minlength=g.px.size))))
+
+    def members(self, centres: np.ndarray, offsets: np.ndarray):
+        """All (k, m) with ``cells[m]`` in a cell ``centres[k] + offsets``, as two index arrays."""
+        q = (centres[:, None] + offsets).ravel()
+        if self.first is None:
+            lo = np.searchsorted(self.cells, q, "left")
+            cnt = np.searchsorted(self.cells, q, "right") - lo
+        else:
+            lo = self.first[q]
+            cnt = self.first[q + 1] - lo
+        member = np.repeat(lo - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
+        owner = np.repeat(np.arange(centres.size).repeat(offsets.size), cnt)
+        return owner, member
+
+
+def _chunks(n: int, scale: int = 1):
+    step = _CHUNK * scale
+    return (slice(k, min(k + step, n)) for k in range(0, n, step))
 
 
 def _link(g: _Grid, o: _Open, sx: np.ndarray, sy: np.ndarray, scell: np.ndarray, kern):
@@ -215,36 +234,44 @@ def _link(g: _Grid, o: _Open, sx: np.ndarray, sy: np.ndarray, scell: np.ndarray,
     if kern is not None:
         first = np.concatenate(([0], np.cumsum(np.bincount(o.cell, minlength=g.px.size))))
         return kern.link(first, scell, sx, sy, g.nbr, *o.box, g.touch2)
-    src, sub = _block_members(g, o.cell, scell)
-    px, py = sx[src], sy[src]
-    t = _touches(px, py, *(b[sub] for b in o.box), g.touch2)
-    return sub[t], px[t], py[t]
+    index = _CellIndex(g, o.cell, scell.size * g.nbr.size)
+    out: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = [(np.empty(0, dtype=np.int64), np.empty(0), np.empty(0))]
+    for part in _chunks(scell.size):
+        src, sub = index.members(scell[part], g.nbr)
+        px, py = sx[part][src], sy[part][src]
+        t = _touches(px, py, *(b[sub] for b in o.box), g.touch2)
+        out.append((sub[t], px[t], py[t]))
+    return tuple(np.concatenate(z) for z in zip(*out))
 
 
-def _split_pairs(o: _Open, mx, my, valid, touch2: float, r2: float):
-    """numpy path of ``_split``: (child, x, y) for each parent pair touching a valid child, and
-    which children one disk contains."""
-    s = o.pair_sub
+def _split_pairs(o: _Open, part: slice, mx, my, touch2: float, r2: float):
+    """numpy path of ``_split`` for the pairs in ``part``: (child, x, y) for each pair whose
+    disk touches a child (children are 4 * parent + quadrant), and the children it contains."""
+    s = o.pair_sub[part]
+    vx, vy = o.pair_x[part], o.pair_y[part]
     lox, hix, loy, hiy = o.box
     near2, far2 = [], []  # per axis: (low child, high child) squared distances
-    for lo, mid, hi, v in ((lox, mx, hix, o.pair_x), (loy, my, hiy, o.pair_y)):
+    for lo, mid, hi, v in ((lox, mx, hix, vx), (loy, my, hiy, vy)):
         lo, mid, hi = lo[s], mid[s], hi[s]
         low_hi = np.minimum(mid, hi)  # upper edge of the low child, clipped to the domain
         d = (np.maximum(np.maximum(lo - v, v - low_hi), 0.0), np.maximum(np.maximum(mid - v, v - hi), 0.0))
         f = (np.maximum(v - lo, low_hi - v), np.maximum(v - mid, hi - v))
         near2.append([a * a for a in d])
         far2.append([a * a for a in f])
-    covered = np.zeros((mx.size, 4), dtype=bool)
-    subs, xs, ys = [], [], []
+    touch = np.empty((4, s.size), dtype=bool)
+    inside = np.empty((4, s.size), dtype=bool)
     for q in range(4):
         qy, qx = q >> 1, q & 1
-        t = near2[0][qx] + near2[1][qy] < touch2
-        t &= valid[s, q]
-        covered[s[t & (far2[0][qx] + far2[1][qy] <= r2)], q] = True
-        subs.append(4 * s[t] + q)
-        xs.append(o.pair_x[t])
-        ys.append(o.pair_y[t])
-    return np.concatenate(subs), np.concatenate(xs), np.concatenate(ys), covered
+        np.less(near2[0][qx] + near2[1][qy], touch2, out=touch[q])
+        np.less_equal(far2[0][qx] + far2[1][qy], r2, out=inside[q])
+
+    def child_of(k):  # flat index into (4, P) -> child, pair; no integer division
+        q = (k >= s.size).astype(np.int64) + (k >= 2 * s.size) + (k >= 3 * s.size)
+        pr = k - q * s.size
+        return 4 * s[pr] + q, pr
+
+    pr = child_of(np.flatnonzero(touch))
+    return pr[0], vx[pr[1]], vy[pr[1]], child_of(np.flatnonzero(inside & touch))[0]
 
 
 def _split(g: _Grid, o: _Open, kern) -> _Open:
@@ -264,10 +291,14 @@ def _split(g: _Grid, o: _Open, kern) -> _Open:
     valid = (np.stack((yes, my < g.y1), axis=1)[:, :, None]
              & np.stack((yes, mx < g.x1), axis=1)[:, None, :]).reshape(-1, 4)
     if kern is None:
-        csub, cx, cy, covered = _split_pairs(o, mx, my, valid, g.touch2, g.r2)
+        parts = [_split_pairs(o, part, mx, my, g.touch2, g.r2) for part in _chunks(o.pair_sub.size, 8)]
+        csub, cx, cy, inside = (np.concatenate([p[k] for p in parts]) if parts else np.empty(0, dtype=t)
+                                for k, t in enumerate((np.int64, float, float, np.int64)))
+        covered = np.zeros((mx.size, 4), dtype=bool)
+        covered.ravel()[inside] = True
     else:
         csub, cx, cy, covered = kern.split_pairs(o.pair_sub, o.pair_x, o.pair_y, lox, hix, loy, hiy,
-                                                 mx, my, valid.ravel(), g.touch2, g.r2)
+                                                 mx, my, g.touch2, g.r2)
         covered = covered.reshape(-1, 4)
     q = np.arange(4)
     child = _Open(level, ((o.i << 1)[:, None] + (q >> 1)).ravel(), ((o.j << 1)[:, None] + (q & 1)).ravel(),
@@ -315,25 +346,40 @@ def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, p
     dy = o.pair_y[pair] - y[dart]
     dead = np.zeros(sub.size, dtype=bool)
     dead[dart[dx * dx + dy * dy < g.r2]] = True
-    alive = np.flatnonzero(~dead)  # stays sorted by cell
-    wins: list[np.ndarray] = [np.empty(0, dtype=np.int64)]
-    while alive.size:
-        c, p = cell[alive], prio[alive]
-        np.maximum.at(g.cand_prio, c, p)
-        rep = np.flatnonzero(g.cand_prio[c] == p)
-        g.cand_prio[c] = -1
-        owner, other = _block_members(g, c, c[rep])
-        d, e = alive[rep[owner]], alive[other]
-        dx = x[e] - x[d]
-        dy = y[e] - y[d]
-        blocked = np.zeros(rep.size, dtype=bool)
-        blocked[owner[(prio[e] > prio[d]) & (dx * dx + dy * dy < g.r2)]] = True
-        win = alive[rep[~blocked]]
-        g.px[cell[win]] = x[win]
-        g.py[cell[win]] = y[win]
-        wins.append(win)
-        rest = alive[np.isnan(g.px[c])]
-        alive = rest[~_hits_sample(g, cell[rest], x[rest], y[rest])]
+    live = np.flatnonzero(~dead)  # stays sorted by cell
+    # conflict graph among live darts: same cell, or closer than r; each edge once, hi -> lo
+    c = cell[live]
+    index = _CellIndex(g, c, c.size * g.half.size)
+    edges: list[tuple[np.ndarray, np.ndarray]] = [(np.empty(0, dtype=np.int64),) * 2]
+    for part in _chunks(c.size):
+        a, b = index.members(c[part], g.half)
+        a += part.start
+        keep = c[a] != c[b]
+        keep |= b > a  # same cell: each unordered pair once
+        a, b = live[a[keep]], live[b[keep]]
+        dx = x[b] - x[a]
+        dy = y[b] - y[a]
+        edge = (dx * dx + dy * dy < g.r2) | (cell[a] == cell[b])
+        a, b = a[edge], b[edge]
+        up = prio[a] > prio[b]
+        edges.append((np.where(up, a, b), np.where(up, b, a)))
+    hi, lo = (np.concatenate(z) for z in zip(*edges))
+    alive = ~dead
+    wins: list[np.ndarray] = []
+    while True:  # Luby rounds on the edge list
+        blocked = np.zeros(sub.size, dtype=bool)
+        blocked[lo] = True  # every remaining edge has both ends alive
+        win = alive & ~blocked
+        wins.append(np.flatnonzero(win))
+        alive &= ~win
+        alive[lo[win[hi]]] = False
+        if not lo.size:
+            break
+        e = alive[hi] & alive[lo]
+        hi, lo = hi[e], lo[e]
+    win = np.concatenate(wins)
+    g.px[cell[win]] = x[win]
+    g.py[cell[win]] = y[win]
     win = np.concatenate(wins)
     return win[np.argsort(prio[win])[::-1]]
 
@@ -397,12 +443,12 @@ def _link_loop(first, scell, sx, sy, nbr, lox, hix, loy, hiy, touch2):
     return sub[:n], px[:n], py[:n]
 
 
-def _split_loop(s, px, py, lox, hix, loy, hiy, mx, my, valid, touch2, r2):
+def _split_loop(s, px, py, lox, hix, loy, hiy, mx, my, touch2, r2):
     """numba path of ``_split_pairs`` (same expressions, one parent pair at a time)."""
     csub = np.empty(4 * s.size, dtype=np.int64)
     cx = np.empty(4 * s.size)
     cy = np.empty(4 * s.size)
-    covered = np.zeros(valid.size, dtype=np.bool_)
+    covered = np.zeros(4 * mx.size, dtype=np.bool_)
     near = np.empty(4)
     far = np.empty(4)
     n = 0
@@ -422,8 +468,6 @@ def _split_loop(s, px, py, lox, hix, loy, hiy, mx, my, valid, touch2, r2):
         far[3] = max(vy - my[p], hiy[p] - vy)
         for q in range(4):
             c = 4 * p + q
-            if not valid[c]:
-                continue
             ax = near[q & 1]
             ay = near[2 + (q >> 1)]
             if ax * ax + ay * ay < touch2:
