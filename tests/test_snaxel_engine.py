@@ -218,3 +218,22 @@ def test_sketch_is_engulfed_first(topo):
     g.run()
     poly = Polygon(g.snake.xy())
     assert poly.contains(LineString(np.array(stroke).reshape(-1, 2)))
+
+
+@pytest.mark.slow
+def test_resolution_changes_detail_not_size():
+    """Digest property 24: only the Poisson radius changes -> mean area and bounding box within 20%."""
+    from procgen_snaxel.tables import THESIS_TABLES as TT
+
+    def stats(radius: float) -> np.ndarray:
+        out = []
+        for seed in (1, 2, 3):
+            topo = poisson_tessellation(800.0, 800.0, radius, np.random.default_rng(100 + seed))
+            cfg = GrowthConfig(table=TT["4.1"], v_min=2.0, v_max=25.0, t_max=50.0, g_min=240.0, g_max=250.0, n_c=2)
+            xy = CloudGrowth(topo, cfg, np.random.default_rng(seed)).run().snake.xy()
+            w, h = xy.max(0) - xy.min(0)
+            out.append([Polygon(xy).area, w, h])
+        return np.mean(out, axis=0)
+
+    fine, coarse = stats(4.0), stats(6.0)
+    assert np.all(np.abs(coarse / fine - 1.0) < 0.2), (fine, coarse)

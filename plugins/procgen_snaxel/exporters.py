@@ -186,17 +186,31 @@ def anim_gif(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
 
 
 # -- cloudscape ----------------------------------------------------------------------------------
+def _opened(pts: np.ndarray, r: float) -> list[np.ndarray]:
+    """Morphological opening of the outline (shapely buffers): the shading layers follow the
+    lobes, not the fine fringe, so shifting them does not streak."""
+    from shapely.geometry import Polygon
+
+    shape = Polygon(pts).buffer(-r, quad_segs=4).buffer(r, quad_segs=4)
+    parts = getattr(shape, "geoms", [shape])
+    return [np.asarray(p.exterior.coords)[:-1] for p in parts if not p.is_empty and p.area > 0]
+
+
 def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 1000,
                    sky_top: str = "#3f78c0", sky_horizon: str = "#c9def2", lit: str = "#ffffff",
-                   shade: str = "#8e9bb0", layers: int = 5, shift: float = 0.012, title: str = "") -> bytes:
+                   shade: str = "#9aa6ba", layers: int = 14, shift: float = 0.22, perspective: float = 0.35,
+                   title: str = "") -> bytes:
     """Clouds composited back to front with layered shading.
 
     Each cloud is filled with its shade colour, then ``layers`` copies of its outline, shifted
     upwards by growing amounts and clipped to the cloud, are filled with lighter colours: points
     with much cloud below them (lobe tops) end up lit, lobe undersides stay in shade. Far
-    clouds (low cloud__depth) are mixed towards the horizon colour (aerial perspective).
+    clouds (low cloud__depth) are drawn smaller about their base (``perspective``) and mixed
+    towards the horizon colour (aerial perspective). The outlines themselves are not changed.
     """
     dom = _need(domain, "cloudscape_svg", "cloud__depth")
+    if not 1 <= int(layers) <= 40:
+        raise InputError(f"cloudscape_svg: layers = {layers}, expected 1..40")
     box = _box(dom)
     x0, x1, y0, y1 = box
     dwg, group, px = new_drawing(box, width, None)
@@ -208,21 +222,26 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
                        transform=f"translate(0,{_fmt(y0 + y1)}) scale(1,-1)"))
     depth = dom["cloud__depth"]
     n = max(int(depth.max()) + 1, 1)
-    dy = shift * (y1 - y0)
     for i in np.argsort(depth, kind="stable"):
         far = 1.0 - (float(depth[i]) / (n - 1) if n > 1 else 1.0)
-        d = path_data(dom.line(int(i)), True)
+        pts = dom.line(int(i))
+        cx, by = float(pts[:, 0].mean()), float(pts[:, 1].min())
+        sc = 1.0 - perspective * far
+        dy = shift * (float(pts[:, 1].max()) - by) / layers      # total shift: a fraction of the height
+        d = path_data(pts, True)
         clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
         clip.add(dwg.path(d=d))
-        top = _mix(lit, sky_horizon, 0.45 * far)
-        bottom = _mix(shade, sky_horizon, 0.55 * far)
+        top = _mix(lit, sky_horizon, 0.4 * far)
+        bottom = _mix(shade, sky_horizon, 0.5 * far)
+        outer = dwg.g(transform=f"translate({_fmt(cx)},{_fmt(by)}) scale({_fmt(sc)}) translate({_fmt(-cx)},{_fmt(-by)})")
         g = dwg.g(clip_path=f"url(#cloud{i})")
         g.add(dwg.path(d=d, fill=bottom))
-        for k in range(1, layers + 1):
-            g.add(dwg.path(d=d, fill=_mix(bottom, top, k / layers),
-                           transform=f"translate(0,{_fmt(dy * k * (1.0 + 0.3 * k))})"))
-        group.add(g)
-        group.add(dwg.path(d=d, fill="none", stroke=_mix(bottom, sky_horizon, 0.3), stroke_width=_fmt(0.8 * px)))
+        soft = " ".join(path_data(ring, True) for ring in _opened(pts, 0.07 * (float(pts[:, 1].max()) - by)))
+        for k in range(1, int(layers) + 1):
+            g.add(dwg.path(d=soft, fill=_mix(bottom, top, (k / layers) ** 0.6),
+                           transform=f"translate(0,{_fmt(dy * k)})"))
+        outer.add(g)
+        group.add(outer)
     return finish(dwg, provenance, title or "snaxel cloudscape")
 
 

@@ -250,8 +250,8 @@ class Cloudscape(GrowthParams):
         if self.sources is not None:
             sources = [list(map(float, s)) for s in self.sources]
         else:    # back (depth 0) clouds sit higher, front ones lower: a receding sky
-            depth_y = np.linspace(0.68, 0.32, self.n_clouds)
-            xs = rng.uniform(0.2, 0.8, self.n_clouds)
+            depth_y = np.linspace(0.66, 0.34, self.n_clouds)
+            xs = (rng.permutation(self.n_clouds) + rng.uniform(0.3, 0.7, self.n_clouds)) / self.n_clouds
             sources = [[x0 + m + (x1 - x0 - 2 * m) * float(xs[i]), y0 + m + (y1 - y0 - 2 * m) * float(depth_y[i])]
                        for i in range(self.n_clouds)]
         lines, stats = [], []
