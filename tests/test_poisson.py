@@ -62,7 +62,7 @@ CASES = [
     ((1.0, 1.0), 0.03, (0.0, 0.0)),
     ((3.0, 0.4), 0.02, (-10.0, 5.0)),  # non-square, negative origin
     ((0.25, 1.7), 0.05, (1e3, -2e3)),  # tall, far from the origin
-    ((0.7, 0.7), 0.7, (0.0, 0.0)),  # a handful of points
+    ((0.7, 0.7), 0.3, (0.0, 0.0)),  # a handful of points
 ]
 
 
@@ -120,9 +120,9 @@ def test_density_matches_rsa_jamming_limit():
     """Interior coverage of a maximal set built by uniform sequential darts is the RSA
     saturation value 0.5470; a non-maximal set (Bridson, scipy) is near 0.47 and a biased
     parallel scheme (one stratified dart per cell) lands near 0.5457."""
-    r, side, margin = 0.01, 1.5, 0.05
+    r, side, margin = 0.01, 2.0, 0.05
     cover = []
-    for seed in range(4):
+    for seed in range(8):  # std of the mean ~0.0002
         p = sample(seed, (side, side), r)
         inner = ((p > margin) & (p < side - margin)).all(axis=1).sum()
         cover.append(inner * math.pi * (r / 2) ** 2 / (side - 2 * margin) ** 2)

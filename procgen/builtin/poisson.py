@@ -29,8 +29,9 @@ from procgen.errors import InputError
 
 __all__ = ["PoissonDiskError", "poisson_disk", "poisson_disk_with_stats", "MAX_GRID_CELLS"]
 
-MAX_GRID_CELLS = 20_000_000
-"""Largest background grid accepted (~16 B/cell for the sample grid plus temporaries)."""
+MAX_GRID_CELLS = 5_000_000
+"""Largest background grid accepted: peak memory is ~550 B per cell (~1.6 KB per sample),
+so this caps a call near 2.7 GB and ~1.7 million samples."""
 
 _PAD = 2
 """Grid padding in cells: conflicts and coverage only involve the 5x5 block around a cell,
@@ -40,12 +41,15 @@ _MAX_LEVEL = 40
 """Deepest quadtree level. Sub-cells are indexed by int64 (cell << level | offset) and their
 corners by float64; subdivision also stops once a sub-cell is a few ulps wide."""
 
-_SPLIT_BELOW = 0.25
+_SPLIT_BELOW = 0.1
 """Split all open sub-cells when fewer than this fraction of the round's darts became samples
 (measured: a lower value throws many wasted darts, a higher one creates many sub-cells)."""
 
 _DARTS_PER_SUBCELL = 1.0
 """Mean darts per open sub-cell and round."""
+
+_POISSON_CDF = np.cumsum([math.exp(-_DARTS_PER_SUBCELL) * _DARTS_PER_SUBCELL**k / math.factorial(k) for k in range(40)])
+"""P(N <= k) for N ~ Poisson(_DARTS_PER_SUBCELL); a uniform u maps to #{k: cdf[k] <= u}."""
 
 _ROUNDS_AT_FLOOR = 64
 """Dart rounds allowed once sub-cells cannot be split further (only float-degenerate slivers,
@@ -230,18 +234,21 @@ def _chunks(n: int, scale: int = 1):
 
 def _link(g: _Grid, o: _Open, sx: np.ndarray, sy: np.ndarray, scell: np.ndarray, kern):
     """Pairs (sub-cell, new sample) for every open sub-cell in the 5x5 block of each new sample
-    whose rectangle the sample's disk touches."""
+    whose rectangle the sample's disk touches, and which sub-cells a new disk contains."""
     if kern is not None:
         first = np.concatenate(([0], np.cumsum(np.bincount(o.cell, minlength=g.px.size))))
-        return kern.link(first, scell, sx, sy, g.nbr, *o.box, g.touch2)
+        return kern.link(first, scell, sx, sy, g.nbr, *o.box, g.touch2, g.r2)
     index = _CellIndex(g, o.cell, scell.size * g.nbr.size)
     out: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = [(np.empty(0, dtype=np.int64), np.empty(0), np.empty(0))]
+    covered = np.zeros(o.i.size, dtype=bool)
     for part in _chunks(scell.size):
         src, sub = index.members(scell[part], g.nbr)
         px, py = sx[part][src], sy[part][src]
-        t = _touches(px, py, *(b[sub] for b in o.box), g.touch2)
+        box = [b[sub] for b in o.box]
+        t = _touches(px, py, *box, g.touch2)
         out.append((sub[t], px[t], py[t]))
-    return tuple(np.concatenate(z) for z in zip(*out))
+        covered[sub[t & _contains(px, py, *box, g.r2)]] = True
+    return (*(np.concatenate(z) for z in zip(*out)), covered)
 
 
 def _split_pairs(o: _Open, part: slice, mx, my, touch2: float, r2: float):
@@ -294,16 +301,19 @@ def _split(g: _Grid, o: _Open, kern) -> _Open:
         parts = [_split_pairs(o, part, mx, my, g.touch2, g.r2) for part in _chunks(o.pair_sub.size, 8)]
         csub, cx, cy, inside = (np.concatenate([p[k] for p in parts]) if parts else np.empty(0, dtype=t)
                                 for k, t in enumerate((np.int64, float, float, np.int64)))
+        del parts  # free the pieces before the children are filtered
         covered = np.zeros((mx.size, 4), dtype=bool)
         covered.ravel()[inside] = True
     else:
         csub, cx, cy, covered = kern.split_pairs(o.pair_sub, o.pair_x, o.pair_y, lox, hix, loy, hiy,
                                                  mx, my, g.touch2, g.r2)
         covered = covered.reshape(-1, 4)
-    q = np.arange(4)
-    child = _Open(level, ((o.i << 1)[:, None] + (q >> 1)).ravel(), ((o.j << 1)[:, None] + (q & 1)).ravel(),
-                  csub, cx, cy)
-    return child.keep(g, (valid & ~covered).ravel())
+    keep = (valid & ~covered).ravel()
+    kid = np.flatnonzero(keep)  # surviving children, 4 * parent + quadrant
+    new_index = np.cumsum(keep) - 1
+    pm = keep[csub]
+    return _Open(level, (o.i[kid >> 2] << 1) + ((kid & 3) >> 1), (o.j[kid >> 2] << 1) + (kid & 1),
+                 new_index[csub[pm]], cx[pm], cy[pm]).locate(g)
 
 
 def _darts(g: _Grid, o: _Open, rng: np.random.Generator):
@@ -315,7 +325,11 @@ def _darts(g: _Grid, o: _Open, rng: np.random.Generator):
     """
     lox, hix, loy, hiy = o.box
     full = math.ldexp(g.side, -o.level) ** 2
-    count = rng.poisson(_DARTS_PER_SUBCELL * ((hix - lox) * (hiy - loy) / full))
+    # whole sub-cells: inverse-CDF Poisson draws (one uniform each, much cheaper than
+    # rng.poisson with an array of means); sub-cells clipped by the domain: rng.poisson
+    count = np.searchsorted(_POISSON_CDF, rng.random(o.i.size), side="right")
+    clipped = np.flatnonzero((hix >= g.x1) | (hiy >= g.y1))
+    count[clipped] = rng.poisson(_DARTS_PER_SUBCELL * ((hix - lox) * (hiy - loy) / full)[clipped])
     sub = np.repeat(np.arange(o.i.size), count)
     u = rng.random((2, sub.size))
     lox, hix, loy, hiy = (b[sub] for b in o.box)
@@ -336,7 +350,9 @@ def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, p
     """
     cell = o.cell[sub]
     if kern is not None:
-        return kern.settle(np.argsort(prio)[::-1], cell, x, y, g.px, g.py, g.nbr, g.r2)
+        order = np.empty_like(prio)
+        order[prio.size - 1 - prio] = np.arange(prio.size)  # darts by decreasing priority
+        return kern.settle(order, cell, x, y, g.px, g.py, g.nbr, g.r2)
     count = np.bincount(sub, minlength=o.i.size)
     start = np.cumsum(count) - count
     k = count[o.pair_sub]  # each touching disk against every dart of its sub-cell
@@ -380,7 +396,6 @@ def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, p
     win = np.concatenate(wins)
     g.px[cell[win]] = x[win]
     g.py[cell[win]] = y[win]
-    win = np.concatenate(wins)
     return win[np.argsort(prio[win])[::-1]]
 
 
@@ -416,8 +431,8 @@ def _settle_loop(order, cell, x, y, px, py, nbr, r2):
     return out[:n]
 
 
-def _link_loop(first, scell, sx, sy, nbr, lox, hix, loy, hiy, touch2):
-    """(sub-cell, x, y) for each open sub-cell in a new sample's block that its disk touches."""
+def _link_loop(first, scell, sx, sy, nbr, lox, hix, loy, hiy, touch2, r2):
+    """numba path of ``_link``."""
     total = 0
     for s in range(scell.size):
         for k in range(nbr.size):
@@ -426,6 +441,7 @@ def _link_loop(first, scell, sx, sy, nbr, lox, hix, loy, hiy, touch2):
     sub = np.empty(total, dtype=np.int64)
     px = np.empty(total)
     py = np.empty(total)
+    covered = np.zeros(lox.size, dtype=np.bool_)
     n = 0
     for s in range(scell.size):
         vx = sx[s]
@@ -440,7 +456,11 @@ def _link_loop(first, scell, sx, sy, nbr, lox, hix, loy, hiy, touch2):
                     px[n] = vx
                     py[n] = vy
                     n += 1
-    return sub[:n], px[:n], py[:n]
+                    fx = max(vx - lox[m], hix[m] - vx)
+                    fy = max(vy - loy[m], hiy[m] - vy)
+                    if fx * fx + fy * fy <= r2:
+                        covered[m] = True
+    return sub[:n], px[:n], py[:n], covered
 
 
 def _split_loop(s, px, py, lox, hix, loy, hiy, mx, my, touch2, r2):
@@ -535,10 +555,9 @@ def poisson_disk_with_stats(
         stats["trace"].append((o.level, int(o.i.size), int(sub.size), int(wins.size)))
         rate = wins.size / max(sub.size, 1)
         closed = ~np.isnan(g.px[o.cell])  # cell taken
-        sub, sx, sy = _link(g, o, x[wins], y[wins], o.cell[sub[wins]], kern)
-        closed[sub[_contains(sx, sy, *(b[sub] for b in o.box), g.r2)]] = True  # inside a new disk
+        sub, sx, sy, covered = _link(g, o, x[wins], y[wins], o.cell[sub[wins]], kern)
         o.add_pairs(sub, sx, sy)
-        o = o.keep(g, ~closed)
+        o = o.keep(g, ~(closed | covered))
         if not o.i.size:
             break
         if o.level >= _MAX_LEVEL or math.ldexp(side, -o.level) < 64 * coord_ulp:
