@@ -65,6 +65,8 @@ def type_name(tp: Any) -> str:
     if origin is not None:
         args = ", ".join(type_name(a) for a in typing.get_args(tp) if a is not Ellipsis)
         return f"{getattr(origin, '__name__', str(origin))}[{args}]"
+    if tp is type(None):
+        return "None"
     return getattr(tp, "__name__", str(tp))
 
 
