@@ -7,6 +7,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from procgen import FieldSpec, Grid, InputError, RuleBase, State, param
+from procgen.fields import check_field_name
 
 from . import particles as P
 from .corrosion import REGROUP_POWERS, CorrosionParams, corrosion_step, weak_cells, weakness_score
@@ -367,9 +368,10 @@ class RenderLayers(RuleBase):
     uses: ClassVar[dict[str, str]] = {SURF: "Grid"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("surface__thickness", SURF, "cell", "in", units="length"),
-        FieldSpec("surface__color", SURF, "cell", "out", units="rgb"),
+        FieldSpec("{field}", SURF, "cell", "out", units="rgb"),
     )
     grid: str = param("terrain", doc="Grid to render")
+    field: str = param("surface__color", doc="cell field to write (e.g. stage_b__color to keep a stage)")
     azimuth: float = param(135.0, ge=-360.0, le=360.0, units="deg", doc="light azimuth from +x")
     elevation: float = param(50.0, gt=0.0, le=90.0, units="deg", doc="light elevation")
     wet_darkening: float = param(0.45, ge=0.0, le=1.0, doc="how much saturation darkens a layer")
@@ -402,12 +404,41 @@ class RenderLayers(RuleBase):
                             wet_darkening=self.wet_darkening, water_depth=water, hole=hole,
                             background=tuple(self.background), z_scale=self.z_scale,
                             base_relief=self.base_relief)
-        g.add_field("surface__color", rgb, at="cell", units="rgb", doc="rendered colour")
+        g.add_field(self.field, rgb, at="cell", units="rgb", doc="rendered colour")
         return True
 
     def validate(self) -> None:
         if len(self.background) != 3:
             raise ValueError("background must be 3 numbers")
+        check_field_name(self.field)
 
 
-RULES = [MultiLayerSurface, WaterDrops, WeakMap, Corrosion, RenderLayers]
+@dataclass(kw_only=True)
+class Snapshot(RuleBase):
+    """Copy a grid field under a new name, to keep a stage of a run for the outputs."""
+
+    name: ClassVar[str] = "water.snapshot"
+    example: ClassVar[tuple[dict, ...]] = _SMALL + (
+        {"rule": "water.snapshot", "params": {"src": "surface__height", "dst": "stage_a__height"}},)
+    uses: ClassVar[dict[str, str]] = {SURF: "Grid"}
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("{src}", SURF, "cell", "in"),
+        FieldSpec("{dst}", SURF, "cell", "out"),
+    )
+    grid: str = param("terrain", doc="Grid holding the field")
+    src: str = param("surface__color", doc="field to copy")
+    dst: str = param("stage__color", doc="name of the copy")
+
+    def validate(self) -> None:
+        check_field_name(self.src)
+        check_field_name(self.dst)
+
+    def step(self, state: State) -> bool:
+        g = state.get(self.grid, Grid)
+        info = g.field_info(self.src)
+        g.add_field(self.dst, np.array(g[self.src]), at="cell", units=info.units,
+                    doc=f"copy of {self.src}: {info.doc}")
+        return True
+
+
+RULES = [MultiLayerSurface, WaterDrops, WeakMap, Corrosion, RenderLayers, Snapshot]
