@@ -40,27 +40,24 @@ def provenance(recipe: Recipe, seed: int, host: "PluginHost") -> dict[str, Any]:
             "versions": host.versions()}
 
 
-def export(state: State, spec: OutputSpec, host: "PluginHost", out_dir: Path, stem: str,
-           prov: dict[str, Any]) -> list[str]:
-    """Run one exporter and write its files atomically; returns the written names."""
+def render_output(state: State, spec: OutputSpec, host: "PluginHost",
+                  prov: dict[str, Any]) -> dict[str, bytes]:
+    """Run one exporter; return {path relative to the output folder: bytes}. Writes nothing."""
     exporter = host.exporter(spec.format)
     domain = state.get(spec.domain)
     if not exporter.accepts(type(domain)):
         raise InputError(f"output {spec.file!r}: format {spec.format!r} cannot write a {domain.kind}")
+    stem = Path(spec.file).with_suffix("").name
     try:
         blob = exporter.func(domain, stem=stem, provenance=prov, **spec.options)
     except ProcgenError:
         raise
-    except (ValueError, TypeError, KeyError) as exc:
+    except (ValueError, TypeError, KeyError, IndexError) as exc:
         raise InputError(f"output {spec.file!r} ({spec.format}): {type(exc).__name__}: {exc}") from None
     rel_dir = Path(spec.file).parent
     files = {Path(spec.file).name: blob} if isinstance(blob, (bytes, str)) else dict(blob)
-    written = []
-    for name, data in files.items():
-        rel = rel_dir / Path(name).name
-        write(out_dir / rel, data)
-        written.append(rel.as_posix())
-    return written
+    return {(rel_dir / Path(name).name).as_posix(): (data.encode() if isinstance(data, str) else bytes(data))
+            for name, data in files.items()}
 
 
 def _progress(total: int | None, desc: str, enabled: bool) -> Any:
@@ -83,7 +80,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
     prov = provenance(recipe, seed, host)
     result = RunResult(state)
     step_info: list[dict[str, Any]] = []
-    frame_states: list[tuple[OutputSpec, bytes | dict[str, bytes], str]] = []
+    pending: dict[str, bytes] = {}   # every file of the run, written only once all succeeded
     for step in recipe.steps:
         rule = step.rule
         state.step_index, state.rule_name, state.iteration = step.index, rule.name, -1
@@ -112,7 +109,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
                     if step.frames is not None and (it + 1) % step.frames.every == 0:
                         spec = OutputSpec(step.frames.domain, step.frames.format,
                                           _frame_name(step, it + 1, host), step.frames.options)
-                        frame_states.append(_render_frame(state, spec, host, prov))
+                        pending.update(render_output(state, spec, host, prov))
                     if step.until_stable and not changed:
                         stopped = "stable"
                         break
@@ -129,23 +126,17 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
     if out_dir is None:
         return result
     out_dir = Path(out_dir)
-    for spec, blob, stem in frame_states:
-        files = {Path(spec.file).name: blob} if isinstance(blob, (bytes, str)) else dict(blob)
-        for name, data in files.items():
-            rel = Path(spec.file).parent / Path(name).name
-            write(out_dir / rel, data)
-            result.files.append(rel.as_posix())
     for spec in recipe.outputs:
-        stem = str(Path(spec.file).with_suffix(""))
-        result.files += export(state, spec, host, out_dir, Path(stem).name, prov)
+        pending.update(render_output(state, spec, host, prov))
     if save_state:
-        state.save(out_dir / "state.npz")
-        result.files.append("state.npz")
+        pending["state.npz"] = state.to_npz_bytes()
     info = {"recipe": recipe.name, "source": Path(recipe.source).name, "seed": seed,
             "meta": recipe.meta, "resolved_recipe": recipe.data, "provenance": prov,
-            "steps": step_info, "reports": state.reports, "files": sorted(result.files)}
-    write(out_dir / "run.json", json.dumps(info, indent=2, sort_keys=True, default=_json_default) + "\n")
-    result.files.append("run.json")
+            "steps": step_info, "reports": state.reports, "files": sorted([*pending, "run.json"])}
+    pending["run.json"] = (json.dumps(info, indent=2, sort_keys=True, default=_json_default) + "\n").encode()
+    for rel, data in pending.items():
+        write(out_dir / rel, data)
+    result.files = sorted(pending)
     result.run_info = info
     return result
 
@@ -163,12 +154,3 @@ def _json_default(value: Any) -> Any:
 def _frame_name(step: Any, iteration: int, host: "PluginHost") -> str:
     suffix = host.exporter(step.frames.format).suffix
     return f"frames/step{step.index}/frame_{iteration:04d}{suffix}"
-
-
-def _render_frame(state: State, spec: OutputSpec, host: "PluginHost",
-                  prov: dict[str, Any]) -> tuple[OutputSpec, Any, str]:
-    """Export a frame now (the domain changes later) but keep the bytes until the run succeeds."""
-    exporter = host.exporter(spec.format)
-    stem = Path(spec.file).with_suffix("").name
-    blob = exporter.func(state.get(spec.domain), stem=stem, provenance=prov, **spec.options)
-    return spec, blob, stem

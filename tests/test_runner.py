@@ -103,3 +103,12 @@ def test_non_bool_step_is_a_plugin_error(thost):
 def test_progress_is_silent_when_not_a_tty(thost, capfd):
     run(_recipe(thost, {"iterations": 20}), thost)
     assert capfd.readouterr().err == ""
+
+
+def test_failing_exporter_writes_nothing_either(thost, tmp_path):
+    out = tmp_path / "o"
+    outputs = [{"domain": "g", "format": "npy", "options": {"field": "cell__filled"}},
+               {"domain": "g", "format": "image_png", "options": {"field": "cell__filled", "cmap": "no_such_map"}}]
+    with pytest.raises(InputError, match="no_such_map"):
+        run(_recipe(thost, {"iterations": 2}, outputs), thost, out_dir=out)
+    assert not out.exists()
