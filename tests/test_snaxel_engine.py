@@ -73,9 +73,21 @@ def test_invariants_hold_after_every_step(topo):
     g = CloudGrowth(topo, small_cfg(n_c=3), np.random.default_rng(3))
     prev = None
     holes_seen = 0
+    t_before = None
     while g.step():
         prev = check_snake(g, prev)
         holes_seen = g.snake.holes
+        t = g.snake.flts[:, 1]
+        act = g.cluster_of[g.snake.ints[:, 2]] == g.active
+        # 19: inside the running cluster nothing travels past g + one step of the fastest snaxel
+        if not g.done and act.any():
+            assert t[act].max() <= g.g + g.cfg.v_max * g.cfg.dt + 1e-9
+        # 14: travelled distances never decrease (per surviving edge) except at a cluster reset
+        key = g.snake.ints[:, 0] * topo.n_vertices + g.snake.ints[:, 1]
+        if t_before is not None and len(g.stats.cluster_log) == resets:
+            common, i_new, i_old = np.intersect1d(key, t_before[0], return_indices=True)
+            assert np.all(t[i_new] >= t_before[1][i_old] - 1e-12)
+        t_before, resets = (key, t.copy()), len(g.stats.cluster_log)
     # the run must have exercised births, head-on merges and at least one hole
     assert g.snake.births > 300 and g.snake.merges > g.snake.births and holes_seen > 0
     assert g.snake.hole_rule_disagreements == 0
@@ -88,6 +100,10 @@ def test_circular_profile_matches_the_ray_construction():
         for x in np.linspace(0.0, 10.0, 23):
             assert circular_profile(np.array([x]), 10.0, np.array([h]))[0] == pytest.approx(
                 circular_profile_by_rays(x, 10.0, h), abs=1e-9)
+    # Eq 3.5/3.6: k = 1 at t = 0 and e^-1 at t = 1/r; with w_s = 1 and t = 0 the speed is b_v
+    from procgen_snaxel.speeds import blend, effect_coefficient
+    assert effect_coefficient(np.array([0.0, 10.0]), 0.1) == pytest.approx([1.0, np.exp(-1.0)])
+    assert blend(np.array([7.0]), np.array([3.0]), effect_coefficient(np.array([0.0]), 0.1), 1.0)[0] == 7.0
     ratio = circular_profile(np.array([1.0, 2.5, 4.0]), 10.0, np.full(3, 25.0)) / 25.0
     assert np.allclose(ratio, [0.087, 0.279, 0.679], atol=6e-4)
 

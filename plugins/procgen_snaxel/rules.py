@@ -110,7 +110,7 @@ class GrowthParams(RuleBase):
         except ValueError as exc:
             raise InputError(f"{self.name}: {exc}") from None
         if growth.snapshot_every == 0:
-            growth.snapshot_every = max(1, int(round(8.0 * topo.mean_edge / (cfg.v_max * cfg.dt))))
+            growth.snapshot_every = max(1, int(round(4.0 * topo.mean_edge / (cfg.v_max * cfg.dt))))
         return growth, topo
 
 
