@@ -218,7 +218,7 @@ class _CellIndex:
             lo = self.first[q]
             cnt = self.first[q + 1] - lo
         member = np.repeat(lo - (np.cumsum(cnt) - cnt), cnt) + np.arange(int(cnt.sum()))
-        owner = np.repeat(np.arange(centres.size).repeat(offsets.size), cnt)
+        owner = np.repeat(np.arange(centres.size), cnt.reshape(-1, offsets.size).sum(axis=1))
         return owner, member
 
 
