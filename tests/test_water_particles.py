@@ -30,14 +30,15 @@ def _thesis_case(seed=3, n=400, crowd=60, evaporation=0.01, threshold=0.3):
     return s, d, p, tab
 
 
-def _capacity_case(seed=5, footprint="bilinear"):
+def _capacity_case(seed=5, footprint="bilinear", fade=False):
     """Classic terrain use: non-absorbent rock, sediment capacity, thick enough not to hole."""
     tab = parse_materials(["rock"])
     ny, nx = 24, 20
     rng = np.random.default_rng(seed)
     base = base_surface("fbm", (ny, nx), 1.0, rng, amplitude=4.0, tilt_deg=15)
     s = P.make_surface(base, np.full((ny, nx, 1), 5.0), tab)
-    p = P.WaterParams(sediment_capacity=2.0, footprint=footprint, max_age=15, evaporation=0.0)
+    p = P.WaterParams(sediment_capacity=2.0, footprint=footprint, max_age=15, evaporation=0.0,
+                      capacity_fade=fade)
     d = P.emit(s, p, rng, 300, "uniform")
     d.pos[:40] = d.pos[0]
     return s, d, p, tab
@@ -141,10 +142,10 @@ def test_drops_on_a_45_degree_plane_run_down_the_slope():
     assert np.all(d.vel[:, 1] <= 0)
 
 
-@pytest.mark.parametrize("case,footprint", [("thesis", "cell"), ("capacity", "bilinear"),
-                                            ("capacity", "disc")])
-def test_batch_equals_one_drop_at_a_time_reference(case, footprint):
-    s1, d1, p, _ = _thesis_case() if case == "thesis" else _capacity_case(footprint=footprint)
+@pytest.mark.parametrize("case,footprint,fade", [("thesis", "cell", False), ("capacity", "bilinear", False),
+                                                 ("capacity", "disc", True)])
+def test_batch_equals_one_drop_at_a_time_reference(case, footprint, fade):
+    s1, d1, p, _ = _thesis_case() if case == "thesis" else _capacity_case(footprint=footprint, fade=fade)
     s2, d2 = copy.deepcopy(s1), copy.deepcopy(d1)
     for _ in range(20):
         d1 = P.step(s1, d1, p)
@@ -165,3 +166,19 @@ def test_same_seed_same_arrays():
         outs.append((s.thickness.copy(), s.held.copy(), d.pos.copy()))
     for a, b in zip(*outs):
         assert np.array_equal(a, b)
+
+
+def test_emission_modes_put_drops_where_asked():
+    tab = parse_materials(["rock"])
+    s = P.make_surface(np.zeros((30, 40)), np.ones((30, 40, 1)), tab)
+    p = P.WaterParams()
+    rng = np.random.default_rng(0)
+    top = P.emit(s, p, rng, 400, "top", 0.2)
+    assert np.all(top.pos[:, 1] >= 24) and np.all(top.pos[:, 1] < 30)
+    mask = np.zeros((30, 40))
+    mask[5:10, 20:25] = 1.0
+    w = P.emit(s, p, rng, 400, "weights", weights=mask)
+    assert np.all((w.pos[:, 0] >= 20) & (w.pos[:, 0] < 25) & (w.pos[:, 1] >= 5) & (w.pos[:, 1] < 10))
+    assert s.emitted.sum() == pytest.approx(800.0)
+    em = s.emitted.reshape(30, 40)
+    assert em[:24][mask[:24] == 0].sum() == 0 and em[5:10, 20:25].sum() == pytest.approx(400.0)

@@ -24,7 +24,10 @@ Choices for the thesis's unstated equations (the thesis gives the rules in words
   drop's sediment capacity (optional, k V speed max(slope, min_slope): classic terrain
   erosion) and by the concentration limit S <= max_concentration V.  With a capacity, a drop
   never erodes more than the height it just descended, and a drop moving uphill first fills
-  the hollow it leaves (the usual particle-erosion rules that stop self-dug pits).  Water held in eroded
+  the hollow it leaves (the usual particle-erosion rules that stop self-dug pits).
+  Optionally (``capacity_fade``) the capacity fades linearly with age to 0 at ``max_age``:
+  the drop-level stand-in for the evaporating drops of classic erosion, since the thesis's
+  drops never evaporate.  Water held in eroded
   solid beyond the new capacity is released into the eroding drops.
 * one sediment type per drop: the first layer it erodes; it erodes only that material.
   Deposits rejoin their source layer (so deposited patina renders as thin patina), and are
@@ -73,6 +76,7 @@ class WaterParams:
     footprint: Footprint = "cell"
     brush_radius: float = 2.5
     erode_stabilised: bool = False
+    capacity_fade: bool = False
 
 
 @dataclass
@@ -394,6 +398,14 @@ def _deposit(s: Surface, d: Drops, idx: np.ndarray, amount: np.ndarray, p: Water
     d.sediment[idx] -= amount
 
 
+def _fade(age: np.ndarray, p: WaterParams) -> np.ndarray | float:
+    """Capacity factor 1 - age/max_age with ``capacity_fade`` (drops lay their load gradually
+    and reach max_age nearly empty instead of dumping it where they stop), else 1."""
+    if not p.capacity_fade or p.max_age <= 0:
+        return 1.0
+    return np.clip(1.0 - age / p.max_age, 0.0, 1.0)
+
+
 def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.ndarray,
              gy: np.ndarray, dh: np.ndarray | None = None) -> Drops:
     """Absorption, deposition, erosion for every drop with water; removes empty drops."""
@@ -453,6 +465,7 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
         if p.sediment_capacity is not None:
             slope = np.hypot(gx.ravel()[cell[ei]], gy.ravel()[cell[ei]])
             capd = p.sediment_capacity * d.volume[ei] * speed[ei] * np.maximum(slope, p.min_slope)
+            capd = capd * _fade(d.age[ei], p)
             room = np.minimum(room, capd - d.sediment[ei])
         if p.sediment_capacity is not None and dh is not None:
             # never dig deeper than the drop just went down (no self-dug pits)
@@ -493,7 +506,7 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
     # --- deposition of sediment beyond the capacity (classic terrain erosion) --------------
     if p.sediment_capacity is not None:
         slope = np.hypot(gx.ravel()[cell], gy.ravel()[cell])
-        capd = p.sediment_capacity * d.volume * speed * np.maximum(slope, p.min_slope)
+        capd = p.sediment_capacity * d.volume * speed * np.maximum(slope, p.min_slope) * _fade(d.age, p)
         extra = np.maximum(d.sediment - capd, 0.0) * p.deposition_rate
         extra = np.where(d.moving, extra, d.sediment)      # a stopped drop lays its whole load
         if dh is not None:

@@ -190,7 +190,9 @@ def step_loop(s: Surface, d: Drops, p: WaterParams) -> Drops:
         if p.sediment_capacity is not None:
             c = cell[i]
             slope = math.hypot(gxf[c], gyf[c])
-            room = min(room, p.sediment_capacity * d.volume[i] * speed[i] * max(slope, p.min_slope) - d.sediment[i])
+            fade = min(max(1 - d.age[i] / p.max_age, 0.0), 1.0) if p.capacity_fade and p.max_age > 0 else 1.0
+            room = min(room, p.sediment_capacity * d.volume[i] * speed[i] * max(slope, p.min_slope) * fade
+                       - d.sediment[i])
             room = min(room, max(-dh[i], 0.0) * a)
         room = max(room, 0.0)
         lim = room / per if per > room and per > 0 else 1.0
@@ -226,7 +228,8 @@ def step_loop(s: Surface, d: Drops, p: WaterParams) -> Drops:
         for i in range(n):
             c = cell[i]
             slope = math.hypot(gxf[c], gyf[c])
-            capd = p.sediment_capacity * d.volume[i] * speed[i] * max(slope, p.min_slope)
+            fade = min(max(1 - d.age[i] / p.max_age, 0.0), 1.0) if p.capacity_fade and p.max_age > 0 else 1.0
+            capd = p.sediment_capacity * d.volume[i] * speed[i] * max(slope, p.min_slope) * fade
             extra = max(d.sediment[i] - capd, 0.0) * p.deposition_rate
             if not d.moving[i]:
                 extra = d.sediment[i]

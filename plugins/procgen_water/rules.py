@@ -140,6 +140,7 @@ class WaterDrops(RuleBase):
     footprint: str = param("cell", choices=("cell", "bilinear", "disc"), doc="cells a drop erodes/deposits on")
     brush_radius: float = param(_WP.brush_radius, gt=0.5, le=8.0, units="cells", doc="radius of the 'disc' footprint")
     erode_stabilised: bool = param(False, doc="stabilised drops keep eroding")
+    capacity_fade: bool = param(False, doc="sediment capacity fades to 0 at max_age (gradual deposition)")
     depth_gain: float = param(1.0, gt=0.0, doc="scale of water__depth (drop volume per area)")
 
     def model(self) -> P.WaterParams:
