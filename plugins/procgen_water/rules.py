@@ -143,6 +143,11 @@ class WaterDrops(RuleBase):
     capacity_fade: bool = param(False, doc="sediment capacity fades to 0 at max_age (gradual deposition)")
     depth_gain: float = param(1.0, gt=0.0, doc="scale of water__depth (drop volume per area)")
 
+    def memory_estimate(self) -> int:
+        # per live drop: its arrays plus the footprint pair temporaries (disc: ~21 pairs)
+        per = 2500 if self.footprint == "disc" else 600
+        return int((self.drops + 100 * self.rain) * per)
+
     def model(self) -> P.WaterParams:
         names = {f.name for f in dc_fields(P.WaterParams)}
         return P.WaterParams(**{k: v for k, v in self.param_values().items() if k in names})
