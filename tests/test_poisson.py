@@ -9,8 +9,11 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from scipy.spatial import Voronoi, cKDTree
 
+from procgen.builtin import poisson as poisson_module
 from procgen.builtin.poisson import PoissonDiskError, poisson_disk, poisson_disk_with_stats
 from procgen.errors import InputError
 
@@ -86,6 +89,36 @@ def test_maximal_dense_probe_and_exact_voronoi(size, radius, origin):
     tol = radius * 1e-9  # float rounding of the distances only
     assert probe_gap(p, origin, size, radius) <= radius + tol
     assert voronoi_gap(p, origin, size) <= radius + tol
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    w=st.floats(1e-3, 3.0),
+    h=st.floats(1e-3, 3.0),
+    cells=st.floats(2.0, 60.0),  # radius = longest side / cells: keeps every example small
+    ox=st.floats(-1e3, 1e3),
+    oy=st.floats(-1e3, 1e3),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_any_rectangle_gives_a_maximal_poisson_disk_set(w, h, cells, ox, oy, seed):
+    r = max(w, h) / cells
+    p = sample(seed, (w, h), r, (ox, oy))
+    assert len(p) >= 1
+    assert (p >= [ox, oy]).all() and (p < [ox + w, oy + h]).all()
+    if len(p) > 1:
+        assert min_pair_distance(p) >= r
+    if len(p) > 2:
+        assert voronoi_gap(p, (ox, oy), (w, h)) <= r * (1 + 1e-9)
+    else:  # Voronoi needs a few points: the corners and a dense probe decide
+        assert probe_gap(p, (ox, oy), (w, h), r, per_radius=32) <= r * (1 + 1e-9)
+
+
+def test_accelerate_true_without_numba_is_a_clear_error(monkeypatch):
+    monkeypatch.setattr(poisson_module, "_numba_kernels", lambda: None)
+    with pytest.raises(PoissonDiskError, match="numba"):
+        poisson_disk_with_stats(np.random.default_rng(0), (1.0, 1.0), 0.1, accelerate=True)
+    p, stats = poisson_disk_with_stats(np.random.default_rng(0), (1.0, 1.0), 0.1)  # falls back to numpy
+    assert not stats["numba"] and len(p) > 10
 
 
 def test_probes_detect_a_hole():
