@@ -131,13 +131,13 @@ def view_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
 # -- animations ----------------------------------------------------------------------------------
 def anim_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 600,
              background: str | None = "#8fb8e0", fill: str = "#ffffff", frame_seconds: float = 0.12,
-             hold_seconds: float = 1.5, title: str = "") -> bytes:
+             hold_seconds: float = 1.5, crop: bool = True, title: str = "") -> bytes:
     """The growth as an animated SVG (SMIL, discrete frames); browsers play it in a loop."""
     dom = _need(domain, "cloud_anim_svg")
     n = dom.n_lines
     if n == 0:
         raise InputError("cloud_anim_svg: the history has no contour")
-    dwg, group, px = new_drawing(_box(dom), width, background)
+    dwg, group, px = new_drawing(_crop_box(dom, 0.06) if crop else _box(dom), width, background)
     total = n * frame_seconds + hold_seconds
     for i in range(n):
         t0 = i * frame_seconds / total
@@ -172,12 +172,14 @@ def rasterise(lines: list[np.ndarray], box: tuple[float, float, float, float], w
 
 
 def anim_gif(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 400,
-             background: str = "#8fb8e0", fill: str = "#ffffff", frame_ms: int = 100, hold_ms: int = 1500) -> bytes:
-    """The growth as a looping GIF, one frame per recorded contour."""
+             background: str = "#8fb8e0", fill: str = "#ffffff", frame_ms: int = 100, hold_ms: int = 1500,
+             crop: bool = True) -> bytes:
+    """The growth as a looping GIF, one frame per recorded contour (framed on the cloud)."""
     dom = _need(domain, "cloud_gif")
     if dom.n_lines == 0:
         raise InputError("cloud_gif: the history has no contour")
-    frames = [rasterise([dom.line(i)], _box(dom), width, background, fill).quantize(colors=16, dither=0)
+    box = _crop_box(dom, 0.06) if crop else _box(dom)
+    frames = [rasterise([dom.line(i)], box, width, background, fill).quantize(colors=16, dither=0)
               for i in range(dom.n_lines)]
     buf = io.BytesIO()
     durations = [frame_ms] * (len(frames) - 1) + [hold_ms]

@@ -16,6 +16,14 @@ from .speeds import base_speed, blend, circular_profile, effect_coefficient, lin
 from .topology import Topology
 
 
+def label_starts(c: np.ndarray) -> np.ndarray:
+    """True where a (cyclic) run of equal labels begins; slicing instead of np.roll (hot path)."""
+    out = np.empty(len(c), bool)
+    out[1:] = c[1:] != c[:-1]
+    out[0] = c[0] != c[-1]
+    return out
+
+
 @dataclass
 class Snapshot:
     step: int
@@ -124,9 +132,11 @@ class CloudGrowth:
         n = len(c)
         if xy is None:
             xy = snake.xy()
-        d = np.roll(xy, -1, axis=0) - xy
+        d = np.empty_like(xy)
+        np.subtract(xy[1:], xy[:-1], out=d[:-1])
+        np.subtract(xy[0], xy[-1], out=d[-1])
         seg = np.hypot(d[:, 0], d[:, 1])               # segment i joins snaxel i to i+1
-        start_mask = c != np.roll(c, 1)
+        start_mask = label_starts(c)
         if not start_mask.any():
             start_mask[0] = True
         if not start_mask[0]:
@@ -147,7 +157,7 @@ class CloudGrowth:
         and start the chain at a curve boundary."""
         snake = self.snake
         c = snake.ints[:, CURVE]
-        start_mask = c != np.roll(c, 1)
+        start_mask = label_starts(c)
         if not start_mask.any():
             return
         starts = np.flatnonzero(start_mask)
