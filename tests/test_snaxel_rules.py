@@ -217,3 +217,29 @@ def test_cloudscape_composites_clouds_back_to_front(tmp_path, host):
     ids = [m for m in re.findall(rb'clip-path="url\(#cloud(\d)\)"', svg)]
     assert ids == [b"0", b"1", b"2"]                      # farthest first
     assert len(cairosvg.svg2png(bytestring=svg)) > 1000
+
+
+def test_cloud_svg_options_stroke_gradient_smoothing():
+    from procgen import Polylines
+    from procgen_snaxel.exporters import cloud_svg
+
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    ring = np.column_stack([50 + 20 * np.cos(t), 50 + 15 * np.sin(t)])
+    dom = Polylines(ring, [0, 40], closed=[True], bounds=(0.0, 100.0, 0.0, 100.0))
+    plain = ET.fromstring(cloud_svg(dom))
+    assert list(plain.iter(SVG + "path"))[0].get("stroke") is None
+    styled = ET.fromstring(cloud_svg(dom, stroke="#334455", gradient=["#ffffff", "#c0c8d8"], smooth=2))
+    path = list(styled.iter(SVG + "path"))[0]
+    assert path.get("stroke") == "#334455" and path.get("fill").startswith("url(#")
+    assert len(list(styled.iter(SVG + "linearGradient"))) == 1
+    assert path.get("d").count(" L") + 1 == 40 * 4            # two Chaikin passes: 4x the vertices
+    with pytest.raises(Exception, match="smooth"):
+        cloud_svg(dom, smooth=9)
+
+
+def test_time_step_too_large_for_the_tessellation(tmp_path, host):
+    from procgen import InputError
+
+    rec = load_recipe(recipe_file(tmp_path, dict(dt=0.5)), host)
+    with pytest.raises(InputError, match="dt = 0.5"):
+        run(rec, host, progress=False)

@@ -102,6 +102,9 @@ class GrowthParams(RuleBase):
         if source is not None:
             cfg.source = source
         box = self.domain_box(topo)
+        if cfg.speed_cap * cfg.dt > topo.min_edge:
+            raise InputError(f"{self.name}: dt = {cfg.dt:g} lets a snaxel travel {cfg.speed_cap * cfg.dt:g} per step, "
+                             f"more than the shortest edge {topo.min_edge:.3g}; use dt <= {topo.min_edge / cfg.speed_cap:.3g}")
         marked = None
         try:
             if cfg.sketch:
@@ -171,7 +174,8 @@ class GrowCloud(GrowthParams):
     """Grow one 2-D cumulus outline with snaxels on a tessellation (thesis seed 004).
 
     One iteration is one Euler step of the whole snake; the run ends (step returns False) once
-    n_c clusters have grown. Creates the contour ``{cloud}`` (updated every step, for frames),
+    n_c clusters have grown. Creates the contour ``{cloud}`` (refreshed every publish_every steps
+    for the runner's frames),
     and at the end ``{cloud}_history`` (earlier contours, for the process figure and
     animations) and ``{cloud}_view`` (tessellation/snake/snaxel close-up of Figure 1.2).
     Reports N_s, N_v and event counts.
