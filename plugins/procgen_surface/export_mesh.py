@@ -77,6 +77,8 @@ class DisplacedMesh:
     corner_uv: np.ndarray    # (T, 3, 2)
     vertex_rgb: np.ndarray   # (V, 3) colour of the cell under each vertex
     face_cell: np.ndarray    # (T,) cell under each triangle's centroid
+    face_src: np.ndarray     # (T,) input triangle each output triangle lies on
+    corner_xy: np.ndarray    # (T, 3, 2) corners in that triangle's 2-D cell frame
 
 
 def _lattice(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -177,7 +179,7 @@ def displaced_mesh(cells: SurfaceCells, height: np.ndarray, rgb: np.ndarray, ali
     used = np.unique(faces_out)
     remap = np.full(nv, -1, np.int64)
     remap[used] = np.arange(len(used))
-    return DisplacedMesh(pos[used], remap[faces_out], uv, col[used], t_cell)
+    return DisplacedMesh(pos[used], remap[faces_out], uv, col[used], t_cell, t_face, xy[t_flat])
 
 
 def cells_face_normals(cells: SurfaceCells) -> np.ndarray:

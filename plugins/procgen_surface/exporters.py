@@ -29,18 +29,26 @@ def _heights(sc: SurfaceCells) -> np.ndarray:
 
 
 def _colors(sc: SurfaceCells, field: str) -> np.ndarray:
+    """Colours per cell: a field name (n, 3), or 'voronoi' / 'status' / 'cells' / 'layers'."""
+    from .rules import cell_colors
+    if field in ("voronoi", "status", "cells"):
+        return cell_colors(sc, field, lit=False, light=np.zeros(3), eye=np.zeros(3))
+    if field == "layers":
+        return cell_colors(sc, "layers", lit=False, light=np.zeros(3), eye=np.zeros(3))
     if field in sc:
         rgb = np.asarray(sc[field], float)
         if rgb.shape != (sc.n_cells, 3):
             raise InputError(f"surface export: field {field!r} must be (n_cells, 3), got {rgb.shape}")
         return np.clip(rgb, 0, 1)
+    if field != "surface__rgb":
+        raise InputError(f"surface export: no field {field!r} (and not one of voronoi, status, "
+                         "cells, layers)")
     if "layers__thickness" in sc and sc.materials is not None:
-        from .rules import cell_colors
         return cell_colors(sc, "layers", lit=False, light=np.zeros(3), eye=np.zeros(3))
     return np.full((sc.n_cells, 3), 0.7)
 
 
-def build_export(sc: SurfaceCells, *, field: str = "surface__rgb", texels: int = 2,
+def build_export(sc: SurfaceCells, *, color_by: str = "surface__rgb", texels: int = 2,
                  cells_per_segment: float = 4.0, exaggerate: float = 0.02,
                  max_triangles: int = 1_500_000, textured: bool = True):
     """(DisplacedMesh, Atlas | None) of a SurfaceCells domain."""
@@ -48,7 +56,7 @@ def build_export(sc: SurfaceCells, *, field: str = "surface__rgb", texels: int =
         raise InputError(f"surface export: texels must be in 1..16, got {texels}")
     if cells_per_segment <= 0:
         raise InputError("surface export: cells_per_segment must be > 0")
-    rgb = _colors(sc, field)
+    rgb = _colors(sc, color_by)
     alive = sc.alive()
     atlas = pack_atlas(sc, rgb, alive, texels=texels) if textured else None
     level = subdivision_level(sc, cells_per_segment, max_triangles)
@@ -57,12 +65,12 @@ def build_export(sc: SurfaceCells, *, field: str = "surface__rgb", texels: int =
 
 
 def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
-                field: str = "surface__rgb", texels: int = 2, cells_per_segment: float = 4.0,
+                color_by: str = "surface__rgb", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, vertex_colors: bool = False,
                 textured: bool = True, max_triangles: int = 1_500_000) -> dict[str, bytes]:
     """OBJ + MTL + PNG atlas of the cells, displaced by the stacked layer thickness."""
     sc = _check(domain, "surface_obj")
-    mesh, atlas = build_export(sc, field=field, texels=texels, cells_per_segment=cells_per_segment,
+    mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
                                exaggerate=exaggerate, max_triangles=max_triangles, textured=textured)
     name = stem.rsplit("/", 1)[-1]
     return obj_files(mesh, atlas, name=name, header=comment_lines(provenance),
@@ -70,12 +78,12 @@ def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
 
 
 def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                field: str = "surface__rgb", texels: int = 2, cells_per_segment: float = 4.0,
+                color_by: str = "surface__rgb", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, textured: bool = True,
                 max_triangles: int = 1_500_000) -> bytes:
     """Binary glTF of the same displaced, textured mesh (vertex colours if not textured)."""
     sc = _check(domain, "surface_glb")
-    mesh, atlas = build_export(sc, field=field, texels=texels, cells_per_segment=cells_per_segment,
+    mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
                                exaggerate=exaggerate, max_triangles=max_triangles, textured=textured)
     return glb_bytes(mesh, atlas, provenance)
 
@@ -84,11 +92,16 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "layers", width: int = 640, height: int = 480,
                 azimuth: float = 35.0, elevation: float = 25.0, up: str = "z",
                 light_azimuth: float | None = None, light_elevation: float = 50.0,
-                cells_per_segment: float = 1.0, exaggerate: float = 0.02,
-                max_triangles: int = 600_000, background: tuple = (255, 255, 255)) -> bytes:
-    """Preview PNG from a fixed camera.  ``color_by='layers'`` is the thesis rendering: Phong
-    per layer (eye = the camera) then light through the layers, per cell; holes cut out.
-    ``voronoi``/``status``/a field name: flat colours with two-sided Lambert shading."""
+                cells_per_segment: float = 4.0, exaggerate: float = 0.02,
+                max_triangles: int = 400_000, background: list[int] | None = None) -> bytes:
+    """Preview PNG from a fixed camera, coloured per pixel by the cell under it.
+
+    ``color_by='layers'`` is the thesis rendering: Phong per layer (eye = the camera) then light
+    through the layers, per cell; holes cut out.  ``voronoi``/``status``/``cells``/a field name:
+    flat cell colours with two-sided Lambert shading of the (displaced) facets.
+    """
+    from .export_mesh import cell_under
+    from .preview import face_id_buffer, encode_png, pixel_barycentric, project
     from .rules import cell_colors
 
     sc = _check(domain, "surface_png")
@@ -102,20 +115,33 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
         else:
             light = light_direction(light_azimuth, light_elevation)
         rgb = cell_colors(sc, "layers", lit=True, light=light, eye=eye)
-        lit = False
-    elif color_by in ("voronoi", "status"):
-        rgb, lit = cell_colors(sc, color_by, lit=False, light=eye, eye=eye), True
+        lambert = False
     else:
-        rgb, lit = _colors(sc, color_by), True
+        rgb, lambert = _colors(sc, color_by), True
     alive = sc.alive()
+    if not alive.all():             # holes: triangles about one cell wide, so the far side shows
+        cells_per_segment = min(cells_per_segment, 1.0)
     level = subdivision_level(sc, cells_per_segment, max_triangles)
     mesh: DisplacedMesh = displaced_mesh(sc, _heights(sc), rgb, alive, None, level=level,
                                          exaggerate=exaggerate)
-    import trimesh
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-    return render_mesh_png(tm, (width, height), azimuth=azimuth, elevation=elevation, up=up,
-                           face_colors=rgb[mesh.face_cell], lit=lit,
-                           background=tuple(int(c) for c in background))
+    proj = project(mesh.vertices, (width, height), azimuth=azimuth, elevation=elevation, up=up)
+    ids = face_id_buffer(proj, mesh.faces)
+    rows, cols, tri, bc = pixel_barycentric(proj, mesh.faces, ids)
+    xy = np.einsum("nk,nkd->nd", bc, mesh.corner_xy[tri])
+    cell = cell_under(sc, mesh.face_src[tri], xy)
+    cell = np.where(cell >= 0, cell, mesh.face_cell[tri])
+    pix = rgb[cell]
+    hole = ~alive[cell]
+    if lambert:
+        v, f = mesh.vertices, mesh.faces
+        n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        ld = 0.45 * right + 0.6 * sup + 0.66 * eye
+        ld /= np.linalg.norm(ld)
+        pix = pix * (0.35 + 0.65 * np.abs(n[tri] @ ld))[:, None]
+    ids[rows[hole], cols[hole]] = -1
+    bg = tuple(int(c) for c in (background or (255, 255, 255)))
+    return encode_png(np.clip(pix[~hole], 0, 1), ids, (width, height), bg)
 
 
 def coverage_png(domain: Any, *, stem: str = "", provenance: dict | None = None,

@@ -4,9 +4,9 @@ from procgen import hookimpl
 
 @hookimpl
 def procgen_register_rules():
-    from .rules import (BuildCells, CupPrimitive, LatticePrimitive, ShadeCells, SurfaceCorrosion,
-                        SurfaceLayers, SurfaceVoronoi)
-    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceLayers, SurfaceVoronoi,
+    from .rules import (BuildCells, CupPrimitive, LatticePrimitive, RevolvePrimitive, ShadeCells,
+                        SurfaceCorrosion, SurfaceLayers, SurfaceVoronoi)
+    return [CupPrimitive, RevolvePrimitive, LatticePrimitive, BuildCells, SurfaceLayers, SurfaceVoronoi,
             SurfaceCorrosion, ShadeCells]
 
 

@@ -8,6 +8,7 @@ vertex or face colours; faces whose alpha is below 0.5 (holes) are not drawn.
 from __future__ import annotations
 
 import io
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -50,6 +51,79 @@ def mesh_face_colors(mesh: Any) -> np.ndarray:
     return np.tile([0.75, 0.75, 0.75, 1.0], (m, 1))
 
 
+@dataclass(frozen=True)
+class Projection:
+    """Screen coordinates (supersampled pixels) and depth of mesh vertices."""
+
+    px: np.ndarray
+    py: np.ndarray
+    depth: np.ndarray
+    width: int
+    height: int
+
+
+def project(vertices: np.ndarray, size: tuple[int, int], *, azimuth: float, elevation: float,
+            up: str, margin: float = 0.06, supersample: int = 2) -> Projection:
+    eye, right, sup = camera_basis(azimuth, elevation, up)
+    W, H = int(size[0]) * supersample, int(size[1]) * supersample
+    x, y, z = vertices @ right, vertices @ sup, vertices @ eye
+    cx, cy = (x.max() + x.min()) / 2, (y.max() + y.min()) / 2
+    span = max(x.max() - x.min(), (y.max() - y.min()) * W / H, 1e-12)
+    scale = W * (1 - 2 * margin) / span
+    return Projection((x - cx) * scale + W / 2, H / 2 - (y - cy) * scale, z, W, H)
+
+
+def face_id_buffer(proj: Projection, faces: np.ndarray, keep: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) int: index of the visible face per pixel (-1 = background), painter's order."""
+    from PIL import Image, ImageDraw
+
+    img = Image.new("I", (proj.width, proj.height), 0)
+    if len(faces):
+        draw = ImageDraw.Draw(img)
+        order = np.argsort(proj.depth[faces].mean(axis=1), kind="stable")
+        if keep is not None:
+            order = order[keep[order]]
+        tri = np.stack([proj.px[faces[order]], proj.py[faces[order]]], axis=2).reshape(-1, 6).tolist()
+        for t, pts in zip((order + 1).tolist(), tri):       # one draw call per face (C fill)
+            draw.polygon(pts, fill=t)
+    return np.asarray(img, dtype=np.int64) - 1
+
+
+def pixel_barycentric(proj: Projection, faces: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(pixel rows, cols, face, barycentric (k, 3)) of every covered pixel (pixel centres)."""
+    rows, cols = np.nonzero(ids >= 0)
+    f = ids[rows, cols]
+    p = np.column_stack([cols + 0.5, rows + 0.5])
+    a = np.column_stack([proj.px[faces[f, 0]], proj.py[faces[f, 0]]])
+    b = np.column_stack([proj.px[faces[f, 1]], proj.py[faces[f, 1]]])
+    c = np.column_stack([proj.px[faces[f, 2]], proj.py[faces[f, 2]]])
+    v0, v1, v2 = b - a, c - a, p - a
+    d = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
+    d = np.where(np.abs(d) > 1e-12, d, 1.0)
+    l1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / d
+    l2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / d
+    bc = np.clip(np.column_stack([1 - l1 - l2, l1, l2]), 0, 1)
+    bc /= bc.sum(axis=1, keepdims=True)
+    return rows, cols, f, bc
+
+
+def encode_png(rgb: np.ndarray, ids: np.ndarray, size: tuple[int, int],
+               background: tuple[int, int, int]) -> bytes:
+    """Composite per-pixel colours over the background, downsample, encode."""
+    from PIL import Image
+
+    out = np.empty(ids.shape + (3,))
+    out[:] = np.asarray(background, float) / 255.0
+    mask = ids >= 0
+    out[mask] = rgb
+    img = Image.fromarray(np.clip(np.round(out * 255), 0, 255).astype(np.uint8), "RGB")
+    if img.size != tuple(size):
+        img = img.resize(tuple(int(s) for s in size), Image.LANCZOS)
+    buf = io.BytesIO()
+    img.save(buf, format="PNG")
+    return buf.getvalue()
+
+
 def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: float = 35.0,
                     elevation: float = 25.0, up: str = "z", face_colors: np.ndarray | None = None,
                     lit: bool = True, light: tuple[float, float, float] | None = None,
@@ -61,9 +135,6 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
     (default: from the upper left behind the camera).  Pass ``lit=False`` with colours that are
     already shaded (e.g. per-cell Phong through layers).
     """
-    from PIL import Image, ImageDraw
-
-    w, h = int(size[0]), int(size[1])
     v = np.asarray(mesh.vertices, dtype=float)
     f = np.asarray(mesh.faces, dtype=np.int64)
     eye, right, sup = camera_basis(azimuth, elevation, up)
@@ -77,27 +148,10 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
         ld = ld / np.linalg.norm(ld)
         shade = 0.35 + 0.65 * np.abs(n @ ld)
         col = np.column_stack([col[:, :3] * shade[:, None], col[:, 3]])
-    ss = max(1, int(supersample))
-    W, H = w * ss, h * ss
-    img = Image.new("RGB", (W, H), tuple(int(c) for c in background))
-    if len(f):
-        x, y, z = v @ right, v @ sup, v @ eye
-        cx, cy = (x.max() + x.min()) / 2, (y.max() + y.min()) / 2
-        span = max(x.max() - x.min(), (y.max() - y.min()) * W / H, 1e-12)
-        scale = W * (1 - 2 * margin) / span
-        px = (x - cx) * scale + W / 2
-        py = H / 2 - (y - cy) * scale
-        draw = ImageDraw.Draw(img)
-        keep = col[:, 3] >= 0.5
-        order = np.argsort(z[f].mean(axis=1), kind="stable")
-        order = order[keep[order]]
-        rgb = np.clip(np.round(col[:, :3] * 255), 0, 255).astype(np.uint8)
-        tri = np.stack([px[f], py[f]], axis=2)                   # (m, 3, 2)
-        for t in order:                                          # drawing loop (preview only)
-            c = tuple(int(k) for k in rgb[t])
-            draw.polygon([tuple(p) for p in tri[t]], fill=c, outline=c)
-    if ss > 1:
-        img = img.resize((w, h), Image.LANCZOS)
-    buf = io.BytesIO()
-    img.save(buf, format="PNG")
-    return buf.getvalue()
+    if len(f) == 0:
+        ids = -np.ones((int(size[1]) * supersample, int(size[0]) * supersample), np.int64)
+        return encode_png(np.zeros((0, 3)), ids, size, background)
+    proj = project(v, size, azimuth=azimuth, elevation=elevation, up=up, margin=margin,
+                   supersample=max(1, int(supersample)))
+    ids = face_id_buffer(proj, f, col[:, 3] >= 0.5)
+    return encode_png(np.clip(col[ids[ids >= 0], :3], 0, 1), ids, size, background)

@@ -39,6 +39,30 @@ def revolve(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.ndarray]
     return verts, f
 
 
+def revolve_loop(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.ndarray]:
+    """Closed ring surface (genus 1) revolving a closed (k, 2) profile loop with r > 0."""
+    p = np.asarray(profile, dtype=float)
+    if len(p) < 3 or np.any(p[:, 0] <= 0):
+        raise InputError("revolve: a loop profile needs at least 3 points, all with r > 0")
+    if sections < 3:
+        raise InputError(f"revolve: need at least 3 sections, got {sections}")
+    k = len(p)
+    a = 2 * np.pi * np.arange(sections) / sections
+    verts = np.column_stack([(p[:, 0][:, None] * np.cos(a)).ravel(),
+                             (p[:, 0][:, None] * np.sin(a)).ravel(), np.repeat(p[:, 1], sections)])
+    r = np.arange(k)[:, None]
+    s = np.arange(sections)[None, :]
+    a0 = (r * sections + s).ravel()
+    b0 = (r * sections + (s + 1) % sections).ravel()
+    a1 = (((r + 1) % k) * sections + s).ravel()
+    b1 = (((r + 1) % k) * sections + (s + 1) % sections).ravel()
+    f = np.vstack([np.column_stack([a0, b0, b1]), np.column_stack([a0, b1, a1])]).astype(np.int64)
+    vol = np.sum(np.einsum("ij,ij->i", verts[f[:, 0]], np.cross(verts[f[:, 1]], verts[f[:, 2]])))
+    if vol < 0:
+        f = f[:, ::-1].copy()
+    return verts, f
+
+
 def cup_profile(radius: float = 1.0, height: float = 1.1, wall: float = 0.06,
                 foot: float = 0.55, rings: int = 12) -> np.ndarray:
     """(r, z) profile of a closed cup: foot, bellied outer wall, rounded rim, inner wall, floor."""

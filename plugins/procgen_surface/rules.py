@@ -46,6 +46,35 @@ class CupPrimitive(RuleBase):
 
 
 @dataclass(kw_only=True)
+class RevolvePrimitive(RuleBase):
+    """Generator: the surface of revolution of an (r, z) profile about z (cups, vases, tori).
+
+    An open profile must start and end on the axis; ``loop`` revolves a closed profile into a
+    torus-like ring (e.g. 4 points x 4 sections = the 32-facet object of plate 2-9).
+    """
+
+    name: ClassVar[str] = "surface.revolve"
+    creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+    mesh: str = param("mesh", doc="name of the TriMesh to create")
+    profile: list[list[float]] = param([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+                                       doc="(r, z) points of the profile")
+    sections: int = param(24, ge=3, le=2000, doc="segments around the axis")
+    loop: bool = param(False, doc="profile is a closed loop off the axis (torus-like)")
+
+    def validate(self) -> None:
+        if any(len(p) != 2 for p in self.profile) or len(self.profile) < 3:
+            raise ValueError("profile must be at least 3 [r, z] points")
+
+    def step(self, state: State) -> bool:
+        from .primitives import revolve, revolve_loop
+        p = np.asarray(self.profile, dtype=float)
+        v, f = revolve_loop(p, self.sections) if self.loop else revolve(p, self.sections)
+        state.add_domain(self.mesh, TriMesh(v, f))
+        state.report(f"{self.mesh}.n_faces", len(f))
+        return True
+
+
+@dataclass(kw_only=True)
 class LatticePrimitive(RuleBase):
     """Generator: a closed lattice of square bars (voxel-union surface), e.g. the bronze lattice."""
 
@@ -239,16 +268,26 @@ class SurfaceVoronoi(RuleBase):
                   doc="region label 1..seeds, 0 = not reached yet"),)
     cells: str = param("cells", doc="SurfaceCells domain")
     seeds: int = param(12, ge=1, doc="number of random seeds")
+    seed_points: list[list[float]] | None = param(None, doc="explicit 3-D seed positions (nearest cell each) instead of random seeds")
     p_diagonal: float = param(P_DIAGONAL, ge=0.0, le=1.0, doc="diagonal propagation probability")
     coverage: str = param("coverage", doc="Polylines domain receiving the coverage curve")
 
     def setup(self, state: State) -> None:
         sc = state.get(self.cells, SurfaceCells)
-        labels = place_seeds(sc.n_cells, self.seeds, state.rng(), sc.alive())
+        if self.seed_points:
+            pts = np.asarray(self.seed_points, dtype=float)
+            if pts.ndim != 2 or pts.shape[1] != 3:
+                raise InputError("surface.voronoi: seed_points must be a list of [x, y, z]")
+            from scipy.spatial import cKDTree
+            _, near = cKDTree(sc.center3d).query(pts)
+            labels = np.zeros(sc.n_cells, np.int32)
+            labels[near] = np.arange(1, len(pts) + 1, dtype=np.int32)
+        else:
+            labels = place_seeds(sc.n_cells, self.seeds, state.rng(), sc.alive())
         labels[~sc.alive()] = -1
         self._grow = VoronoiGrowth(sc.graph, labels, self.p_diagonal)
         self._log = CoverageLog()
-        self._log.add(self._grow.coverage, self.seeds / sc.n_cells)
+        self._log.add(self._grow.coverage, int(np.sum(labels > 0)) / sc.n_cells)
         sc.add_field("voronoi__label", np.maximum(labels, 0), at="cell", doc="Voronoi region")
         state.add_domain(self.coverage, self._log.domain())
 
@@ -407,7 +446,7 @@ class ShadeCells(RuleBase):
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("surface__rgb", domain="{cells}", at="cell", intent="out", doc="colour in [0, 1]"),)
     cells: str = param("cells", doc="SurfaceCells domain")
-    color_by: str = param("layers", choices=("layers", "voronoi", "status"), doc="what to show")
+    color_by: str = param("layers", choices=("layers", "voronoi", "status", "cells"), doc="what to show")
     lit: bool = param(False, doc="Phong per layer (True) or unlit albedo for baking (False)")
     light_azimuth: float = param(40.0, units="deg", doc="light direction azimuth")
     light_elevation: float = param(50.0, units="deg", doc="light direction elevation")
@@ -428,6 +467,12 @@ def cell_colors(sc: SurfaceCells, color_by: str, *, lit: bool, light: np.ndarray
     """Per-cell colours; shared by the shade rule and the preview exporter."""
     if color_by == "voronoi":
         return label_colors(np.asarray(sc["voronoi__label"]))
+    if color_by == "cells":
+        # checkerboard of the per-triangle grids; PART-IN cells darker, triangles tinted
+        checker = (sc.ij.sum(axis=1) + sc.face) % 2
+        base = label_colors(sc.face % 12 + 1, seed=3)
+        rgb = base * np.where(checker, 1.0, 0.75)[:, None]
+        return rgb * np.where(sc.comp_in, 1.0, 0.55)[:, None]
     if color_by == "status":
         pal = np.array([[0.80, 0.45, 0.25], [0.30, 0.68, 0.52], [0.05, 0.05, 0.05]])
         return pal[np.asarray(sc["corrosion__status"])]
