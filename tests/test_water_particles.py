@@ -182,3 +182,27 @@ def test_emission_modes_put_drops_where_asked():
     assert s.emitted.sum() == pytest.approx(800.0)
     em = s.emitted.reshape(30, 40)
     assert em[:24][mask[:24] == 0].sum() == 0 and em[5:10, 20:25].sum() == pytest.approx(400.0)
+
+
+def test_one_drop_one_step_matches_hand_computation():
+    """Absorption, erosion with saturation weakening and the liquid term, by hand."""
+    tab = parse_materials([{"preset": "red_patina", "capacity": 0.5, "absorption_rate": 0.3,
+                            "erosion_rate": 0.05, "weakness_threshold": 0.2, "roughness": 0.2}])
+    s = P.make_surface(np.zeros((5, 5)), np.ones((5, 5, 1)), tab, held=np.full((5, 5, 1), 0.4))
+    p = P.WaterParams(evaporation=0.0, friction=0.05, gravity=1.0)
+    d = P.Drops(np.array([[2.2, 2.5]]), np.array([[0.5, 0.0]]), np.array([1.0]), np.array([0.0]),
+                np.array([-1]), np.array([True]), np.array([0]))
+    d = P.step(s, d, p)
+    v = 0.5 * (1 - 0.05) - 0.2 * 1.0                 # viscous damping, then Coulomb (mu g)
+    assert d.pos[0] == pytest.approx([2.2 + v, 2.5]) and d.moving[0]
+    absorbed = 1.0 * 0.3 * (1 - 0.4 / 0.5) / (1 + v / 0.5)
+    held = 0.4 + absorbed
+    vol = 1.0 - absorbed
+    eroded = 0.05 * ((held / 0.5 - 0.2) / 0.8) * (vol + held)
+    c = 2 * 5 + 2
+    assert s.held[c, 0] == pytest.approx(held, rel=1e-12)
+    assert d.volume[0] == pytest.approx(vol, rel=1e-12)
+    assert s.thickness[c, 0] == pytest.approx(1.0 - eroded, rel=1e-12)
+    assert d.sediment[0] == pytest.approx(eroded, rel=1e-12) and d.kind[0] == 0
+    others = np.delete(np.arange(25), c)
+    assert np.all(s.thickness[others] == 1.0) and np.all(s.held[others] == 0.4)
