@@ -56,6 +56,10 @@ _DARTS_PER_SUBCELL = 1.0
 _POISSON_CDF = np.cumsum([math.exp(-_DARTS_PER_SUBCELL) * _DARTS_PER_SUBCELL**k / math.factorial(k) for k in range(40)])
 """P(N <= k) for N ~ Poisson(_DARTS_PER_SUBCELL); a uniform u maps to #{k: cdf[k] <= u}."""
 
+_NUMBA_MIN_CELLS = 100_000
+"""Below this grid size the numpy path finishes before numba would load or compile its kernels
+(~0.3 s from numba's disk cache, ~2 s to compile), so ``accelerate=None`` stays with numpy."""
+
 _ROUNDS_AT_FLOOR = 64
 """Dart rounds allowed once sub-cells cannot be split further (only float-degenerate slivers,
 e.g. a point exactly on three circles, can be left there)."""
@@ -519,13 +523,16 @@ def poisson_disk_with_stats(
 ) -> tuple[np.ndarray, dict]:
     """Like :func:`poisson_disk`, also returning counters: rounds, darts, deepest level,
     sub-cells left open at the float floor, a per-round trace (level, open sub-cells, darts,
-    accepted) and whether numba ran. ``accelerate``: None = numba when installed, False = pure
-    numpy, True = numba or PoissonDiskError. Both paths return identical arrays."""
+    accepted) and whether numba ran. ``accelerate``: None = numba when installed and the grid has
+    at least _NUMBA_MIN_CELLS cells, False = pure numpy, True = numba or PoissonDiskError.
+    Both paths return identical arrays."""
     w, h, ox, oy, r, max_points = _validate(size, radius, origin, max_points)
-    kern = None if accelerate is False else _numba_kernels()
+    side = r / math.sqrt(2.0)
+    cells = math.ceil(w / side) * math.ceil(h / side)
+    wanted = accelerate if accelerate is not None else cells >= _NUMBA_MIN_CELLS
+    kern = _numba_kernels() if wanted else None
     if accelerate and kern is None:
         raise PoissonDiskError("poisson_disk: accelerate=True needs numba, which is not installed")
-    side = r / math.sqrt(2.0)
     coord_ulp = math.ulp(max(abs(ox), abs(oy), abs(ox + w), abs(oy + h), side))
     g = _Grid(x0=ox, y0=oy, x1=ox + w, y1=oy + h, r=r, r2=r * r, touch2=(r + 16 * coord_ulp) ** 2 * (1 + 1e-12),
               side=side, nx=max(1, math.ceil(w / side)), ny=max(1, math.ceil(h / side)))
