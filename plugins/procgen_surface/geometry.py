@@ -213,8 +213,17 @@ def build_cells(vertices: np.ndarray, faces: np.ndarray, size: float, *, frame: 
         local = g - offset[f]
         i, j = local // ny[f], local % ny[f]
         lo = np.column_stack([i, j]).astype(float) * size
-        poly, cnt = clip_squares(lo, size, nrm[f], off[f])
-        area = polygon_areas(poly, cnt)
+        # corner tests first: squares wholly inside need no clip, squares wholly outside one
+        # edge's half-plane have no area; only the rest (the triangle's border) is clipped
+        corner = lo[:, None, :] + np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float) * size
+        d = np.einsum("nkd,ncd->nkc", nrm[f], corner) - off[f][:, :, None]      # (K, 3, 4)
+        inside = np.all(d >= 0, axis=(1, 2))
+        outside = np.any(np.all(d <= 0, axis=2), axis=1)
+        area = np.where(inside, size * size, 0.0)
+        edge = ~inside & ~outside
+        if edge.any():
+            poly, cnt = clip_squares(lo[edge], size, nrm[f[edge]], off[f[edge]])
+            area[edge] = polygon_areas(poly, cnt)
         act = area > 1e-9 * size * size
         g, f, i, j, area = g[act], f[act], i[act], j[act], area[act]
         ctr = (np.column_stack([i, j]) + 0.5) * size
