@@ -196,6 +196,8 @@ def test_bad_input_is_refused_with_one_line_messages():
     with pytest.raises(InputError, match=r"candidate cells .* GB") as exc:
         SurfaceCells.from_mesh(v, f, cell_size=1e-5, max_cells=10_000_000)
     assert "\n" not in str(exc.value)
+    with pytest.raises(InputError, match="budget"):
+        SurfaceCells.from_mesh(v, f, cell_size=2e-6, max_cells=10**15)
     # degenerate triangles are skipped and counted, not a crash
     v2 = np.vstack([v, v[f[0, 0]], v[f[0, 0]] + 1e-3])
     f2 = np.vstack([f, [[f[0, 0], len(v), len(v) + 1]], [[0, 1, 0]]])

@@ -183,6 +183,7 @@ def _grid_dims(frames: FaceFrames, s: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 BYTES_PER_CANDIDATE = 900   # clip buffers (2 x 16 x 2 floats and friends) per candidate cell
+BYTES_PER_CELL = 260        # finished domain: cell arrays, lookup, 8-entry CSR graph, normals
 
 
 def build_cells(vertices: np.ndarray, faces: np.ndarray, size: float, *, frame: str = "thesis",
@@ -196,6 +197,12 @@ def build_cells(vertices: np.ndarray, faces: np.ndarray, size: float, *, frame: 
     frames = face_frames(vertices, faces, frame)
     nx, ny = _grid_dims(frames, size)
     n_cand = int(np.sum(nx * ny))
+    from procgen.recipes import memory_limit_bytes
+    need = n_cand * BYTES_PER_CELL + min(n_cand, chunk) * BYTES_PER_CANDIDATE
+    if need > memory_limit_bytes():
+        raise InputError(
+            f"cell size {size:g} needs about {n_cand:,} candidate cells, ~{need / 1e9:.1f} GB, "
+            f"more than this machine's {memory_limit_bytes() / 1e9:.1f} GB budget; use a larger cell size")
     if n_cand > max_cells:
         raise InputError(
             f"cell size {size:g} needs about {n_cand:,} candidate cells "
