@@ -66,7 +66,11 @@ def main() -> None:
     print(f"batch : {drop_steps} drop-steps in {t_batch:.2f} s -> {rb:,.0f} drop-steps/s "
           f"({t_batch / a.steps * 1e3:.1f} ms/step); water ledger error {wl['error']:.2e}")
     print(f"loop  : {loop_steps} drop-steps in {t_loop:.2f} s -> {rl:,.0f} drop-steps/s")
-    print(f"ratio batch/loop: {rb / rl:.0f}x")
+    ratio = rb / rl
+    print(f"ratio batch/loop: {ratio:.0f}x (target >= 20)")
+    ok = ratio >= 20 and (a.steps != 100 or a.drops != 50_000 or a.size != 512 or t_batch < 10.0)
+    print("targets met" if ok else "BELOW TARGET (ratio >= 20; 50k drops x 100 steps on 512^2 < 10 s)")
+    raise SystemExit(0 if ok else 1)
 
 
 if __name__ == "__main__":
