@@ -118,7 +118,17 @@ class Surface:
 
     def height(self) -> np.ndarray:
         """Top surface height per cell (ncell,)."""
-        return self.base + self.thickness.sum(axis=1)
+        h = self.base.copy()
+        for l in range(self.thickness.shape[1]):     # column adds beat a short-axis reduction
+            h += self.thickness[:, l]
+        return h
+
+    def wet_cells(self) -> np.ndarray:
+        """Cells holding water in any layer."""
+        wet = self.held[:, 0] != 0
+        for l in range(1, self.held.shape[1]):
+            wet |= self.held[:, l] != 0
+        return np.flatnonzero(wet)
 
     def top_layer(self, cells: np.ndarray | slice = slice(None)) -> np.ndarray:
         """Index of the highest layer with thickness > 0 at ``cells`` (-1 where none: a hole)."""
@@ -227,8 +237,10 @@ def _share(keys: np.ndarray, demand: np.ndarray, available: np.ndarray, n: int
     got_e = np.minimum(tk, np.maximum(available, 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         granted = np.where(tk > 0, demand * (got_e / np.where(tk > 0, tk, 1.0)), 0.0)
-    uk, first = np.unique(keys, return_index=True)
-    return granted, uk, got_e[first]
+    per_key = np.zeros(n)
+    per_key[keys] = got_e                       # equal for equal keys: any writer wins
+    uk = np.flatnonzero(tot > 0)                # keys with demand (others get nothing)
+    return granted, uk, per_key[uk]
 
 
 def surface_gradient(s: Surface, h: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -272,7 +284,7 @@ def emit(s: Surface, p: WaterParams, rng: np.random.Generator, n: int, mode: str
 
 def release_excess(s: Surface) -> float:
     """Water above a layer's capacity (after another rule thinned it) leaves as evaporation."""
-    wet = np.flatnonzero(s.held.any(axis=1))
+    wet = s.wet_cells()
     if wet.size == 0:
         return 0.0
     cap = s.capacity[None, :] * s.thickness[wet] * s.cell_area
@@ -529,7 +541,7 @@ def evaporate(s: Surface, p: WaterParams, gx: np.ndarray, gy: np.ndarray) -> Non
     taken from the top-most wet layer first (a thin deposit does not seal the layer below)."""
     if p.evaporation <= 0:
         return
-    wet = np.flatnonzero(s.held.any(axis=1))
+    wet = s.wet_cells()
     if wet.size == 0:
         return
     area = s.cell_area * np.sqrt(1.0 + gx.ravel()[wet] ** 2 + gy.ravel()[wet] ** 2)
