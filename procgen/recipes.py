@@ -229,7 +229,11 @@ class _Flow:
             raise RecipeError(f"{where}: format {fmt!r} writes {'/'.join(exporter.kinds)}, "
                               f"but domain {domain!r} is a {kind}")
         _check_exporter_options(fmt, options, host, where)
-        for key, value in options.items():
+        named = dict(options)
+        for pname, p in inspect.signature(exporter.func).parameters.items():
+            if pname.endswith("field") and pname not in named and isinstance(p.default, str) and p.default:
+                named[pname] = p.default   # the exporter's default field must exist too
+        for key, value in named.items():
             if key.endswith("field") and isinstance(value, str) and (domain, value) not in self.fields:
                 have = sorted(f for d, f in self.fields if d == domain)
                 raise RecipeError(f"{where}: option {key}={value!r}: domain {domain!r} has no field "

@@ -166,3 +166,11 @@ def test_garbage_toml_is_a_recipe_error(text):
         parse_toml(text, "g.toml")
     except RecipeError as exc:
         assert str(exc).startswith("g.toml: invalid TOML")
+
+
+def test_exporter_default_field_must_exist(host):
+    d = {"steps": [{"rule": "grid.noise", "params": {"nx": 8, "ny": 8}}],
+         "outputs": [{"domain": "terrain", "format": "image_png"}]}     # default field surface__color
+    _err(host, d, "option field='surface__color': domain 'terrain' has no field")
+    d["outputs"][0]["options"] = {"field": "surface__height"}
+    check_recipe(d, host, "r.toml")
