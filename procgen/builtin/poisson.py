@@ -58,9 +58,10 @@ _FIRST_DARTS_PER_CELL = 0.5
 """Mean darts per cell in the very first round: the conflict graph grows with its square and
 the first round is the largest (measured at r = 0.004: 0.5 is ~15% faster overall than 1.0)."""
 
-_NUMBA_MIN_CELLS = 100_000
-"""Below this grid size the numpy path finishes before numba would load or compile its kernels
-(~0.3 s from numba's disk cache, ~2 s to compile), so ``accelerate=None`` stays with numpy."""
+_NUMBA_MIN_CELLS = 1_000_000
+"""Grid size from which ``accelerate=None`` uses numba. Importing numba and loading the cached
+kernels costs ~1 s per process (compiling them ~4 s, once per install) and the kernels save
+~25% of the run, so below ~1M cells (~350k samples) a fresh process is faster on numpy."""
 
 _ROUNDS_AT_FLOOR = 64
 """Dart rounds allowed once sub-cells cannot be split further (only float-degenerate slivers,
