@@ -108,6 +108,9 @@ class BuildCells(RuleBase):
     "min(side, height) / k".  Degenerate triangles get no cells and are counted.
     """
 
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 1}},
+        {"rule": "surface.cells", "params": {"target_cells": 1500}},)
     name: ClassVar[str] = "surface.cells"
     uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
     creates: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
@@ -191,6 +194,10 @@ class SurfaceLayers(RuleBase):
     Gaussian sigma in cells, as in the 2.5D plugin).  Materials come from the shared table.
     """
 
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 1}},
+        {"rule": "surface.cells", "params": {"target_cells": 1500}},
+        {"rule": "surface.layers"},)
     name: ClassVar[str] = "surface.layers"
     uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
@@ -259,6 +266,10 @@ class SurfaceVoronoi(RuleBase):
     probability P = sqrt(2)/2 - 1/2, until every cell is labelled (run with until = "stable").
     """
 
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 1}},
+        {"rule": "surface.cells", "params": {"target_cells": 1500}},
+        {"rule": "surface.voronoi", "params": {"seeds": 3}, "until": "stable", "max_iterations": 500},)
     name: ClassVar[str] = "surface.voronoi"
     default_iterations: ClassVar[int] = 100000
     uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
@@ -317,6 +328,11 @@ class SurfaceCorrosion(RuleBase):
     Also fire (consume several layers, product = char) and mildew (k1 = 0) in the gallery.
     """
 
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 1}},
+        {"rule": "surface.cells", "params": {"target_cells": 1500}},
+        {"rule": "surface.layers"},
+        {"rule": "surface.corrosion", "iterations": 15, "params": {"seed_rate": 0.01, "b0": 1.2}},)
     name: ClassVar[str] = "surface.corrosion"
     default_iterations: ClassVar[int] = 950
     uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
@@ -441,6 +457,11 @@ class ShadeCells(RuleBase):
     """Colour per cell (``surface__rgb``): light through the layers (albedo for texture baking,
     or Phong per layer from a fixed light and eye), Voronoi labels, or the corrosion status."""
 
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 1}},
+        {"rule": "surface.cells", "params": {"target_cells": 1500}},
+        {"rule": "surface.layers"},
+        {"rule": "surface.shade"},)
     name: ClassVar[str] = "surface.shade"
     uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
