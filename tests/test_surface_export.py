@@ -195,3 +195,16 @@ def test_bad_recipe_parameters_are_refused(host, tmp_path):
     p.write_text(SMALL.replace('{ preset = "patina", thickness = 0.0 }', '{ preset = "patina", thikness = 0.0 }'))
     with pytest.raises(InputError, match="thikness"):
         run(load_recipe(p, host), host, progress=False)
+
+
+def test_vertex_colour_and_untextured_exports():
+    from procgen_surface.exporters import surface_glb, surface_obj
+    sc = sphere_cells(1, 0.08)
+    sc.add_field("surface__rgb", np.tile([1.0, 0.0, 0.0], (sc.n_cells, 1)), at="cell")
+    files = surface_obj(sc, stem="v", vertex_colors=True, textured=False)
+    assert set(files) == {"v.obj", "v.mtl"}
+    rows = [l.split() for l in files["v.obj"].decode().splitlines() if l.startswith("v ")]
+    assert all(len(r) == 7 and r[4:] == ["1.0000", "0.0000", "0.0000"] for r in rows)
+    g = trimesh.load(io.BytesIO(surface_glb(sc, textured=False)), file_type="glb", force="mesh")
+    assert g.visual.kind == "vertex"
+    assert np.all(np.asarray(g.visual.vertex_colors)[:, :3] == [255, 0, 0])

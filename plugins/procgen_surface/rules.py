@@ -279,7 +279,8 @@ class SurfaceVoronoi(RuleBase):
                   doc="region label 1..seeds, 0 = not reached yet"),)
     cells: str = param("cells", doc="SurfaceCells domain")
     seeds: int = param(12, ge=1, doc="number of random seeds")
-    seed_points: list[list[float]] | None = param(None, doc="explicit 3-D seed positions (nearest cell each) instead of random seeds")
+    seed_points: list[list[float]] | None = param(
+        None, doc="explicit 3-D seed positions (nearest cell each) instead of random seeds")
     p_diagonal: float = param(P_DIAGONAL, ge=0.0, le=1.0, doc="diagonal propagation probability")
     coverage: str = param("coverage", doc="Polylines domain receiving the coverage curve")
 
@@ -367,7 +368,8 @@ class SurfaceCorrosion(RuleBase):
     sigma: float = param(1.0, gt=0.0, units="cells", doc="Gaussian direction weights sigma")
     gaussian: list[list[float]] | None = param(None, doc="explicit 3x3 direction weight matrix")
     strong_fraction: float = param(0.3, ge=0.0, le=1.0, doc="fraction of strong cells")
-    strong_from: str = param("random", choices=("random", "noise"), doc="strong cells at random or from surface noise")
+    strong_from: str = param("random", choices=("random", "noise"),
+                             doc="strong cells at random or from surface noise")
     noise_scale: float | None = param(None, gt=0.0, units="length", doc="surface noise feature size")
     coverage: str = param("coverage", doc="Polylines domain receiving the coverage curve")
 
@@ -476,9 +478,9 @@ class ShadeCells(RuleBase):
 
     def step(self, state: State) -> bool:
         sc = state.get(self.cells, SurfaceCells)
-        sc.add_field("surface__rgb", cell_colors(sc, self.color_by, lit=self.lit,
-                                                 light=light_direction(self.light_azimuth, self.light_elevation),
-                                                 eye=camera_basis(self.eye_azimuth, self.eye_elevation)[0]),
+        light = light_direction(self.light_azimuth, self.light_elevation)
+        eye = camera_basis(self.eye_azimuth, self.eye_elevation)[0]
+        sc.add_field("surface__rgb", cell_colors(sc, self.color_by, lit=self.lit, light=light, eye=eye),
                      at="cell", doc=f"cell colour ({self.color_by})")
         return True
 
