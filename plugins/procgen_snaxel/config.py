@@ -29,6 +29,7 @@ class GrowthConfig:
     n_c: int = 7
     details: str = "circular"          # circular | linear
     base: str = "blend"                # blend (Eq 3.6) | sum (Fig 3.13) | off (Fig 3.15b)
+    seed_from: str = "cluster"         # cluster (thesis) | any (future-work variant: any curve of the snake)
     dt: float = 0.05
     source: list[float] | None = None  # None: the domain centre
     margin: float = 10.0
@@ -60,6 +61,8 @@ class GrowthConfig:
                              "(every cluster reset would start past its allowed growth)")
         if self.details not in ("circular", "linear"):
             raise ValueError(f"details = {self.details!r}: expected 'circular' or 'linear'")
+        if self.seed_from not in ("cluster", "any"):
+            raise ValueError(f"seed_from = {self.seed_from!r}: expected 'cluster' or 'any'")
         if self.base not in ("blend", "sum", "off"):
             raise ValueError(f"base = {self.base!r}: expected 'blend', 'sum' or 'off'")
         if self.source is not None and len(self.source) != 2:

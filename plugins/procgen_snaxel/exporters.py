@@ -200,7 +200,7 @@ def _opened(pts: np.ndarray, r: float) -> list[np.ndarray]:
 
 def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 1000,
                    sky_top: str = "#3f78c0", sky_horizon: str = "#c9def2", lit: str = "#ffffff",
-                   shade: str = "#9aa6ba", layers: int = 14, shift: float = 0.22, perspective: float = 0.35,
+                   shade: str = "#aeb8c8", layers: int = 14, shift: float = 0.22, perspective: float = 0.35,
                    title: str = "") -> bytes:
     """Clouds composited back to front with layered shading.
 

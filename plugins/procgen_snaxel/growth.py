@@ -375,7 +375,7 @@ class CloudGrowth:
         dest_free = ~snake.blocked[snake.ints[:, V]]
         free_count = np.bincount(runs.rid, dest_free, minlength=len(runs.starts))
         ok = (runs.count >= 3) & (runs.length >= cfg.c_min) & (free_count >= 3)
-        cand = np.flatnonzero(ok & (self.cluster_of[runs.curve] == self.active))
+        cand = np.flatnonzero(ok & (self.cluster_of[runs.curve] == self.active)) if cfg.seed_from == "cluster" else []
         if len(cand) == 0:
             cand = np.flatnonzero(ok)
         if len(cand) == 0:

@@ -41,6 +41,8 @@ class GrowthParams(RuleBase):
     details: str = param("circular", choices=("circular", "linear"), doc="details-phase speed profile")
     base: str = param("blend", choices=("blend", "sum", "off"),
                       doc="blend (Eq 3.6), sum (Fig 3.13: b_v + l_v) or off (Fig 3.15b: l_v only)")
+    seed_from: str = param("cluster", choices=("cluster", "any"),
+                           doc="next cluster's seed: a curve of the cluster just stopped (thesis) or of the whole snake")
     dt: float = param(0.05, gt=0.0, le=10.0, units="time", doc="Euler time step")
     source: list[float] | None = param(None, doc="[x, y] of the source vertex; None: domain centre")
     margin: float = param(10.0, ge=0.0, units="length", doc="snaxels heading closer than this to the border stop")
