@@ -66,7 +66,7 @@ def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
     from scipy.ndimage import distance_transform_edt
     if (~filled).any() and filled.any():
         idx = distance_transform_edt(~filled, return_distances=False, return_indices=True)
-        img[~filled, :3] = img[idx[0][~filled], idx[1][~filled], :3]
+        img[~filled] = img[idx[0][~filled], idx[1][~filled]]      # colour and alpha
     return Atlas(image=img, origin=origin, texels=k)
 
 

@@ -132,13 +132,10 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     cell = np.where(cell >= 0, cell, mesh.face_cell[tri])
     pix = rgb[cell]
     hole = ~alive[cell]
-    if lambert:
-        v, f = mesh.vertices, mesh.faces
-        n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    if lambert:                      # two-sided Lambert with the cell's rounded normal
         ld = 0.45 * right + 0.6 * sup + 0.66 * eye
         ld /= np.linalg.norm(ld)
-        pix = pix * (0.35 + 0.65 * np.abs(n[tri] @ ld))[:, None]
+        pix = pix * (0.35 + 0.65 * np.abs(sc.normal[cell] @ ld))[:, None]
     ids[rows[hole], cols[hole]] = -1
     bg = tuple(int(c) for c in (background or (255, 255, 255)))
     return encode_png(np.clip(pix[~hole], 0, 1), ids, (width, height), bg)

@@ -124,34 +124,78 @@ def encode_png(rgb: np.ndarray, ids: np.ndarray, size: tuple[int, int],
     return buf.getvalue()
 
 
+def welded_vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals with coincident vertices merged (UV seams stay smooth)."""
+    _, inv = np.unique(np.round(v, 9), axis=0, return_inverse=True)
+    inv = inv.ravel()
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    acc = np.zeros((inv.max() + 1, 3))
+    for k in range(3):
+        np.add.at(acc, inv[f[:, k]], fn)
+    return acc[inv]
+
+
+def _texture_lookup(mesh: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """(RGBA image floats, per-vertex UV) of a textured trimesh, or None."""
+    vis = mesh.visual
+    if getattr(vis, "kind", None) != "texture" or getattr(vis, "uv", None) is None:
+        return None
+    img = getattr(vis.material, "baseColorTexture", None) or getattr(vis.material, "image", None)
+    if img is None:
+        return None
+    return np.asarray(img.convert("RGBA"), dtype=float) / 255.0, np.asarray(vis.uv, dtype=float)
+
+
 def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: float = 35.0,
                     elevation: float = 25.0, up: str = "z", face_colors: np.ndarray | None = None,
-                    lit: bool = True, light: tuple[float, float, float] | None = None,
+                    lit: bool = True, smooth: bool = True,
+                    light: tuple[float, float, float] | None = None,
                     background: tuple[int, int, int] = (255, 255, 255), margin: float = 0.06,
                     supersample: int = 2) -> bytes:
     """PNG bytes of ``mesh`` (a trimesh.Trimesh) seen from a fixed orthographic camera.
 
-    ``lit``: multiply colours by a two-sided Lambert term (ambient 0.35) from ``light``
-    (default: from the upper left behind the camera).  Pass ``lit=False`` with colours that are
-    already shaded (e.g. per-cell Phong through layers).
+    Colours: ``face_colors`` if given, else the texture sampled per pixel at the interpolated
+    UV, else vertex/face colours, else grey; texels/faces with alpha < 0.5 are holes.
+    ``lit``: two-sided Lambert (ambient 0.35) from ``light`` (default: upper left, behind the
+    camera), with per-pixel interpolated vertex normals when ``smooth``.  Pass ``lit=False``
+    for colours that are already shaded.
     """
     v = np.asarray(mesh.vertices, dtype=float)
     f = np.asarray(mesh.faces, dtype=np.int64)
+    ss = max(1, int(supersample))
+    if len(f) == 0:
+        ids = -np.ones((int(size[1]) * ss, int(size[0]) * ss), np.int64)
+        return encode_png(np.zeros((0, 3)), ids, size, background)
     eye, right, sup = camera_basis(azimuth, elevation, up)
-    col = mesh_face_colors(mesh) if face_colors is None else np.asarray(face_colors, dtype=float)
-    if col.shape[1] == 3:
-        col = np.column_stack([col, np.ones(len(col))])
-    if lit and len(f):
-        n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    proj = project(v, size, azimuth=azimuth, elevation=elevation, up=up, margin=margin,
+                   supersample=ss)
+    fcol = mesh_face_colors(mesh) if face_colors is None else np.asarray(face_colors, dtype=float)
+    if fcol.shape[1] == 3:
+        fcol = np.column_stack([fcol, np.ones(len(fcol))])
+    ids = face_id_buffer(proj, f, fcol[:, 3] >= 0.5)
+    rows, cols, tri, bc = pixel_barycentric(proj, f, ids)
+    tex = _texture_lookup(mesh) if face_colors is None else None
+    if tex is not None:
+        img, uv = tex
+        puv = np.einsum("nk,nkd->nd", bc, uv[f[tri]])
+        h, w = img.shape[:2]
+        x = np.clip((puv[:, 0] % 1.0) * w, 0, w - 1).astype(int)
+        y = np.clip((1.0 - puv[:, 1] % 1.0) * h, 0, h - 1).astype(int)
+        pix = img[y, x]
+    else:
+        pix = fcol[tri]
+    hole = pix[:, 3] < 0.5
+    rgb = pix[:, :3]
+    if lit:
+        if smooth:
+            vn = welded_vertex_normals(v, f)
+            n = np.einsum("nk,nkd->nd", bc, vn[f[tri]])
+        else:
+            fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+            n = fn[tri]
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
         ld = (0.45 * right + 0.6 * sup + 0.66 * eye) if light is None else np.asarray(light, float)
         ld = ld / np.linalg.norm(ld)
-        shade = 0.35 + 0.65 * np.abs(n @ ld)
-        col = np.column_stack([col[:, :3] * shade[:, None], col[:, 3]])
-    if len(f) == 0:
-        ids = -np.ones((int(size[1]) * supersample, int(size[0]) * supersample), np.int64)
-        return encode_png(np.zeros((0, 3)), ids, size, background)
-    proj = project(v, size, azimuth=azimuth, elevation=elevation, up=up, margin=margin,
-                   supersample=max(1, int(supersample)))
-    ids = face_id_buffer(proj, f, col[:, 3] >= 0.5)
-    return encode_png(np.clip(col[ids[ids >= 0], :3], 0, 1), ids, size, background)
+        rgb = rgb * (0.35 + 0.65 * np.abs(n @ ld))[:, None]
+    ids[rows[hole], cols[hole]] = -1
+    return encode_png(np.clip(rgb[~hole], 0, 1), ids, size, background)
