@@ -148,6 +148,10 @@ class BuildCells(RuleBase):
         state.report(f"{c}.comp_in_fraction", float(sc.comp_in.mean()))
         state.report(f"{c}.mean_neighbours", float(np.mean(np.diff(sc.indptr))))
         state.report(f"{c}.degenerate_faces_skipped", sc.n_degenerate)
+        from .neighbours import edge_topology
+        topo = edge_topology(sc.faces, sc.valid)
+        state.report(f"{c}.boundary_edges", int(np.sum(topo.valence == 1)))   # 0: closed (thesis 6.3 step 1)
+        state.report(f"{c}.non_manifold_edges", int(np.sum(topo.valence > 2)))
         state.report(f"{c}.faces_smaller_than_cell_rule", too_big)
         state.report(f"{c}.edge_error_mean", float(err.mean()) if len(err) else 0.0)
         state.report(f"{c}.edge_error_analytic", float(1 - 2 * np.sqrt(2) / np.pi))
