@@ -16,7 +16,7 @@ import numpy as np
 
 from procgen.errors import InputError
 
-from .domain import SurfaceCells, barycentric
+from .domain import SurfaceCells
 
 
 @dataclass(frozen=True)
@@ -266,7 +266,3 @@ def glb_bytes(mesh: DisplacedMesh, atlas: Atlas | None, provenance: dict | None 
         scene.metadata["procgen"] = provenance
     return scene.export(file_type="glb")
 
-
-def check_level(level: int) -> None:
-    if level < 1:
-        raise InputError(f"subdivision level must be >= 1, got {level}")

@@ -13,7 +13,7 @@ from procgen.lighting import light_direction
 from .domain import SurfaceCells
 from .export_mesh import (DisplacedMesh, displaced_mesh, glb_bytes, obj_files, pack_atlas,
                           subdivision_level)
-from .preview import camera_basis, render_mesh_png
+from .preview import camera_basis
 
 
 def _check(domain: Any, fmt: str) -> SurfaceCells:
