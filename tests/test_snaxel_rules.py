@@ -243,3 +243,33 @@ def test_time_step_too_large_for_the_tessellation(tmp_path, host):
     rec = load_recipe(recipe_file(tmp_path, dict(dt=0.5)), host)
     with pytest.raises(InputError, match="dt = 0.5"):
         run(rec, host, progress=False)
+
+
+def test_runner_frames_show_the_growth(tmp_path, host):
+    """frames = {every = K} with publish_every = K: each frame is the outline at that step."""
+    p = recipe_file(tmp_path, dict(publish_every=40), outputs="")
+    text = p.read_text().replace('max_iterations = 20000',
+                                 'max_iterations = 20000\nframes = { every = 40, domain = "cloud", format = "cloud_svg" }')
+    p.write_text(text)
+    res = run(load_recipe(p, host), host, out_dir=tmp_path / "o", progress=False)
+    frames = sorted((tmp_path / "o" / "frames" / "step2").glob("frame_*.svg"))
+    assert len(frames) == res.run_info["reports"]["cloud.steps"] // 40
+    areas = []
+    for f in frames:
+        d = cloud_path(f.read_bytes())[1].get("d")
+        pts = np.array([[float(v) for v in xy.split(",")] for xy in re.findall(r"-?[\d.]+,-?[\d.]+", d)])
+        areas.append(Polygon(pts).area)
+    assert all(b >= a for a, b in zip(areas, areas[1:])) and areas[-1] > 5 * areas[0]
+
+
+def test_svg_path_parser_handles_inkscape_commands():
+    from procgen_snaxel.sketch import parse_path_d
+
+    square = parse_path_d("M 0,0 h 10 v 10 H 0 z")[0]
+    assert np.allclose(square, [[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]])
+    rel = parse_path_d("m 5 5 l 1 1 2 2")[0]                 # implicit lineto after moveto
+    assert np.allclose(rel, [[5, 5], [6, 6], [8, 8]])
+    curve = parse_path_d("M0,0 C 0,10 10,10 10,0 S 20,-10 20,0 Q 25,5 30,0 T 40,0")[0]
+    assert np.allclose(curve[-1], [40, 0]) and curve[:, 1].max() == pytest.approx(7.5)
+    two = parse_path_d("M0 0 L1 1 M5 5 L6 6")
+    assert len(two) == 2
