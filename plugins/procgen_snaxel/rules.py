@@ -4,7 +4,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -17,6 +17,14 @@ from .tables import THESIS_TABLES
 from .topology import Topology, build_topology
 
 SKETCH_DIR = Path(__file__).parent / "sketches"
+
+# a tiny tessellation and a scaled-down Table 4.5 for the contract suite's example runs
+_EXAMPLE_MESH: tuple[dict[str, Any], ...] = (
+    {"rule": "points.poisson_disk", "params": {"width": 100.0, "height": 100.0, "radius": 2.0}},
+    {"rule": "mesh.delaunay"},
+)
+_EXAMPLE_GROWTH: dict[str, Any] = {"bounds": [0.0, 0.0, 100.0, 100.0], "table": [[0, 5, 40], [5, 8]], "t_max": 5.0,
+                                   "g_min": 12.0, "g_max": 14.0, "n_c": 2, "margin": 3.0, "c_min": 0.5}
 
 
 @dataclass(kw_only=True)
@@ -185,6 +193,8 @@ class GrowCloud(GrowthParams):
 
     name: ClassVar[str] = "snaxel.grow"
     default_iterations: ClassVar[int] = 100000
+    example: ClassVar[tuple[dict[str, Any], ...]] = _EXAMPLE_MESH + (
+        {"rule": "snaxel.grow", "params": _EXAMPLE_GROWTH, "until": "stable"},)
     uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
     creates: ClassVar[dict[str, str]] = {"{cloud}": "Polylines", "{cloud}_history": "Polylines",
                                          "{cloud}_view": "Polylines"}
@@ -232,6 +242,8 @@ class Cloudscape(GrowthParams):
     """
 
     name: ClassVar[str] = "snaxel.cloudscape"
+    example: ClassVar[tuple[dict[str, Any], ...]] = _EXAMPLE_MESH + (
+        {"rule": "snaxel.cloudscape", "params": dict(_EXAMPLE_GROWTH, n_clouds=2, margin=20.0)},)
     uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
     creates: ClassVar[dict[str, str]] = {"{scape}": "Polylines"}
 
