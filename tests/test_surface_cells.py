@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings, strategies as st
 from scipy import integrate
 from shapely.geometry import Polygon, box
 
@@ -225,3 +226,29 @@ def test_domain_round_trips_through_state(tmp_path):
     np.testing.assert_array_equal(back.indices, sc.indices)
     np.testing.assert_array_equal(back["demo__value"], np.arange(sc.n_cells))
     assert back.size == sc.size
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0, allow_nan=False), min_size=9, max_size=9),
+       st.sampled_from(["thesis", "longest"]), st.floats(0.02, 0.2))
+def test_any_triangle_is_tiled_exactly(coords, frame, s):
+    """Property: for any non-degenerate triangle and cell size, active cells tile it exactly,
+    COMP-IN cells have their centre inside and every active square overlaps the triangle."""
+    v = np.asarray(coords).reshape(3, 3)
+    f = np.array([[0, 1, 2]])
+    area = face_areas(v, f)[0]
+    longest = np.linalg.norm(v[[1, 2, 0]] - v, axis=1).max()
+    if area < 1e-3 * longest ** 2 or longest < 1e-3:
+        return
+    lay = build_cells(v, f, s * longest, frame=frame)
+    assert lay.n_cells >= 1
+    assert lay.area.sum() == pytest.approx(area, rel=1e-9)
+    assert np.all(lay.area > 0) and np.all(lay.area <= (s * longest) ** 2 * (1 + 1e-9))
+    from procgen_surface.domain import barycentric
+    bc = barycentric(np.repeat(lay.frames.corners2d, lay.n_cells, axis=0), lay.center2d)
+    inside = np.all(bc >= -1e-9, axis=1)
+    assert np.array_equal(inside[np.all(np.abs(bc) > 1e-7, axis=1)],
+                          lay.comp_in[np.all(np.abs(bc) > 1e-7, axis=1)])
+    # centres map back onto the triangle's plane
+    n = np.cross(v[1] - v[0], v[2] - v[0])
+    assert np.allclose((lay.center3d - v[0]) @ n, 0, atol=1e-9 * longest ** 3)
