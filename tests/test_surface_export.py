@@ -213,3 +213,15 @@ def test_vertex_colour_and_untextured_exports():
     g = trimesh.load(io.BytesIO(surface_glb(sc, textured=False)), file_type="glb", force="mesh")
     assert g.visual.kind == "vertex"
     assert np.all(np.asarray(g.visual.vertex_colors)[:, :3] == [255, 0, 0])
+
+
+def test_saved_state_loads_after_plugin_discovery_alone(host, tmp_path):
+    """The SurfaceCells kind is registered when the plugin loads, not when a rule is used."""
+    import subprocess
+    import sys
+    run_small(host, tmp_path, "c")
+    code = ("from procgen import get_plugin_manager, State; get_plugin_manager(); "
+            f"s = State.load({str(tmp_path / 'c' / 'state.npz')!r}); "
+            "print(s.domains['cells'].kind, s.domains['cells'].materials.names)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["SurfaceCells", "('copper',", "'patina')"]
