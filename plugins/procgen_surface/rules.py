@@ -275,7 +275,7 @@ class SurfaceVoronoi(RuleBase):
         {"rule": "surface.cells", "params": {"target_cells": 1500}},
         {"rule": "surface.voronoi", "params": {"seeds": 3}, "until": "stable", "max_iterations": 500},)
     name: ClassVar[str] = "surface.voronoi"
-    default_iterations: ClassVar[int] = 100000
+    default_iterations: ClassVar[int] = 2000
     uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
     creates: ClassVar[dict[str, str]] = {"{coverage}": "Polylines"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
@@ -310,6 +310,8 @@ class SurfaceVoronoi(RuleBase):
     def step(self, state: State) -> bool:
         sc = state.get(self.cells, SurfaceCells)
         n_new = self._grow.step(state.rng())
+        if n_new == 0 and len(self._grow.frontier) == 0:
+            return False                  # finished: keep the log as it is (cheap idle steps)
         if n_new:
             sc["voronoi__label"] = np.maximum(self._grow.labels, 0)
         self._log.add(self._grow.coverage, n_new / sc.n_cells)
