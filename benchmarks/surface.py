@@ -86,6 +86,20 @@ def main() -> None:
           f"coverage {cov:.1%}")
     print(f"  {t_pat / 60:.2f} x the 60 s target, {1200 / t_pat:,.0f} x faster than the thesis (< 20 min)")
 
+    # -- export: textured OBJ and GLB of the patinated cup -----------------------------------
+    from procgen_surface.exporters import surface_glb, surface_obj
+    from procgen_surface.rules import cell_colors
+    from procgen.materials import parse_materials
+    sc2.set_materials(parse_materials(["copper", "patina"]))
+    sc2.add_field("layers__thickness", np.column_stack([st.consumable[:, 0], st.product]), at="cell")
+    sc2.add_field("surface__rgb", cell_colors(sc2, "layers", lit=False, light=np.zeros(3),
+                                              eye=np.zeros(3)), at="cell")
+    files, t_obj = timed(surface_obj, sc2, stem="cup")
+    glb, t_glb = timed(surface_glb, sc2)
+    size = sum(len(b) for b in files.values()) / 1e6
+    print(f"export     : OBJ+MTL+atlas {size:.1f} MB in {t_obj:.2f} s, GLB {len(glb) / 1e6:.1f} MB "
+          f"in {t_glb:.2f} s")
+
 
 if __name__ == "__main__":
     main()
