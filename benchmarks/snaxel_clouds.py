@@ -57,7 +57,7 @@ def main() -> None:
     totals, grows = [], []
     for seed in args.seeds:
         event_time[0] = topo_time[0] = 0.0
-        rec = load_recipe("clouds/fig4_2e", host, [f"steps.0.params.radius={args.radius}",
+        rec = load_recipe("clouds/fig-4-2e", host, [f"steps.0.params.radius={args.radius}",
                                                    "steps.0.params.width=1200.0", "steps.0.params.height=1200.0",
                                                    "steps.2.params.bounds=[0.0, 0.0, 1200.0, 1200.0]"])
         rec.outputs.clear()

@@ -80,7 +80,7 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--force", action="store_true", help="re-render entries that are up to date")
     g.add_argument("--list", action="store_true", help="list the entries and exit")
     sw = cmd("sweep", "Run a recipe over a grid of parameter values and seeds; write summary.csv.",
-             'procgen sweep clouds/fig4_3a --grid "steps.2.params.n_c=2,4,8" --seeds 1-100')
+             'procgen sweep clouds/fig-4-3a --grid "steps.2.params.n_c=2,4,8" --seeds 1-100')
     sw.add_argument("recipe")
     sw.add_argument("--grid", action="append", default=[], metavar="KEY=V1,V2,...",
                     help="a parameter axis (repeatable; the sweep is their product)")

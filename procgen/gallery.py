@@ -71,7 +71,7 @@ def _entry_from(raw: Any, where: str, index: int) -> Entry:
 
             raise RecipeError(f"{where}: unknown key {k!r}{did_you_mean(k, ENTRY_KEYS)}")
     if not isinstance(raw.get("recipe"), str):
-        raise RecipeError(f"{where}: missing 'recipe' (a recipe name such as 'clouds/fig3_22')")
+        raise RecipeError(f"{where}: missing 'recipe' (a recipe name such as 'clouds/fig-3-22')")
     seeds = raw.get("seeds", [1])
     if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) and s >= 0 for s in seeds):
         raise RecipeError(f"{where}: seeds must be a list of non-negative integers")
