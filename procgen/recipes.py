@@ -267,7 +267,7 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
             raise RecipeError(f"{where}: {exc}") from None
         where = f"{source}: steps[{i}] ({rule_name})"
         params = _require_table(raw.get("params", {}), f"{where}: params")
-        rule = cls.from_params(params, where)
+        rule = cls.from_params(params, where, base_dir)
         until = raw.get("until")
         if until is not None and until != "stable":
             raise RecipeError(f"{where}: until: only \"stable\" is supported, got {until!r}")

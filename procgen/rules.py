@@ -4,6 +4,7 @@ from __future__ import annotations
 import dataclasses
 import typing
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
 from .errors import RecipeError
@@ -45,6 +46,9 @@ class RuleBase:
     #: A tiny recipe (list of [[steps]] tables) whose LAST step uses this rule; the contract
     #: suite (procgen.testing) runs it. Needed when the rule reads domains others create.
     example: ClassVar[tuple[dict[str, Any], ...]] = ()
+    #: The folder of the recipe being checked (set by ``from_params``), so ``validate`` can
+    #: check files named relative to the recipe. None outside a recipe.
+    recipe_dir: ClassVar["Path | None"] = None
 
     # -- the protocol ---------------------------------------------------------------------
     def setup(self, state: "State") -> None:
@@ -56,6 +60,13 @@ class RuleBase:
 
     def finish(self, state: "State") -> None:
         """Called once after the last iteration (derive final outputs)."""
+
+    def publish(self, state: "State") -> None:
+        """Bring the domains this rule shows up to date; called before each frame is exported.
+
+        Rules that keep cheap internal state (a snake, particles) and only copy it into domains
+        now and then implement this, so frames cost nothing when a recipe writes none.
+        """
 
     def validate(self) -> None:
         """Cross-parameter checks; raise ValueError('what is wrong') for a bad combination."""
@@ -101,7 +112,7 @@ class RuleBase:
         return rows
 
     @classmethod
-    def from_params(cls, params: dict[str, Any], where: str = "") -> "RuleBase":
+    def from_params(cls, params: dict[str, Any], where: str = "", recipe_dir: "Path | None" = None) -> "RuleBase":
         """Build the rule from recipe parameters, checking names, types, NaN and ranges."""
         prefix = f"{where}: " if where else ""
         if not isinstance(params, dict):
@@ -126,6 +137,8 @@ class RuleBase:
             raise RecipeError(f"{prefix}missing required parameter {missing[0]!r}")
         try:
             rule = cls(**clean)
+            if recipe_dir is not None:
+                rule.recipe_dir = recipe_dir  # type: ignore[misc]
             rule.validate()
         except (ValueError, TypeError) as exc:
             raise RecipeError(f"{prefix}{exc}") from None

@@ -107,6 +107,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
                         on_step(state, rec)
                     bar.update(1)
                     if step.frames is not None and (it + 1) % step.frames.every == 0:
+                        rule.publish(state)
                         spec = OutputSpec(step.frames.domain, step.frames.format,
                                           _frame_name(step, it + 1, host), step.frames.options)
                         pending.update(render_output(state, spec, host, prov))

@@ -112,3 +112,36 @@ def test_failing_exporter_writes_nothing_either(thost, tmp_path):
     with pytest.raises(InputError, match="no_such_map"):
         run(_recipe(thost, {"iterations": 2}, outputs), thost, out_dir=out)
     assert not out.exists()
+
+
+@dataclass(kw_only=True)
+class Lazy(RuleBase):
+    """Keeps its count privately and copies it into the grid only when asked (publish)."""
+
+    name: ClassVar[str] = "test.lazy"
+    creates: ClassVar[dict[str, str]] = {"g": "Grid"}
+    fields: ClassVar[tuple] = (FieldSpec("cell__count", "g", "cell", "out"),)
+
+    def setup(self, state):
+        self._n = 0
+        g = Grid((1, 1))
+        g.add_field("cell__count", np.zeros((1, 1)), at="cell")
+        state.add_domain("g", g)
+
+    def step(self, state):
+        self._n += 1
+        return True
+
+    def publish(self, state):
+        state.get("g")["cell__count"][:] = self._n
+
+
+def test_publish_is_called_before_each_frame_and_recipe_dir_is_known(tmp_path):
+    host = get_plugin_manager([plugin_module("lazy", procgen_register_rules=lambda: [Lazy])])
+    frames = {"every": 3, "domain": "g", "format": "npy", "options": {"field": "cell__count"}}
+    rec = check_recipe({"steps": [{"rule": "test.lazy", "iterations": 9, "frames": frames}]}, host, "l.toml",
+                       base_dir=tmp_path)
+    assert rec.steps[0].rule.recipe_dir == tmp_path
+    run(rec, host, out_dir=tmp_path / "o")
+    got = [float(np.load(tmp_path / f"o/frames/step0/frame_{k:04d}.npy")[0, 0]) for k in (3, 6, 9)]
+    assert got == [3.0, 6.0, 9.0]

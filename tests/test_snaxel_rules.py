@@ -246,8 +246,8 @@ def test_time_step_too_large_for_the_tessellation(tmp_path, host):
 
 
 def test_runner_frames_show_the_growth(tmp_path, host):
-    """frames = {every = K} with publish_every = K: each frame is the outline at that step."""
-    p = recipe_file(tmp_path, dict(publish_every=40), outputs="")
+    """frames = {every = K}: the rule publishes before each frame, so it is the outline at that step."""
+    p = recipe_file(tmp_path, dict(), outputs="")
     text = p.read_text().replace('max_iterations = 20000',
                                  'max_iterations = 20000\nframes = { every = 40, domain = "cloud", format = "cloud_svg" }')
     p.write_text(text)

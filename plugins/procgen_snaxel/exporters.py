@@ -14,7 +14,7 @@ import numpy as np
 
 from procgen import InputError, Polylines
 from procgen.builtin.lines import chaikin
-from procgen.exchange.svg import _fmt, finish, new_drawing, path_data, polylines_svg
+from procgen.exchange.svg import fmt_number, finish, new_drawing, path_data, polylines_svg
 
 
 def _need(domain: Any, what: str, field: str | None = None) -> Polylines:
@@ -81,7 +81,7 @@ def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
     curve = dom["snaxel__curve"]
     if fill and dom.n_lines:
         group.add(dwg.path(d=path_data(dom.line(dom.n_lines - 1), True), fill=fill, stroke="none"))
-    sw = _fmt(stroke_width * px)
+    sw = fmt_number(stroke_width * px)
     for i in range(dom.n_lines):
         a, b = dom.offsets[i], dom.offsets[i + 1]
         pts, cv = dom.points[a:b], curve[a:b]
@@ -109,21 +109,21 @@ def view_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
     edges = [dom.line(i) for i in np.flatnonzero(kind == 0)]
     if edges:
         group.add(dwg.path(d=" ".join(path_data(e, False) for e in edges), fill="none",
-                           stroke="#9aa4b4", stroke_width=_fmt(1.2 * px)))
+                           stroke="#9aa4b4", stroke_width=fmt_number(1.2 * px)))
         verts = np.unique(np.round(np.vstack(edges), 9), axis=0)
         dots = dwg.g(fill="#2451c8")
         for x, y in verts:
-            dots.add(dwg.circle(center=(_fmt(x), _fmt(y)), r=_fmt(4.0 * px)))
+            dots.add(dwg.circle(center=(fmt_number(x), fmt_number(y)), r=fmt_number(4.0 * px)))
         group.add(dots)
     for i in np.flatnonzero(kind == 1):
         snake = dom.line(i)
         group.add(dwg.path(d=path_data(snake, True), fill="none", stroke="#d42020",
-                           stroke_width=_fmt(2.5 * px), stroke_linejoin="round"))
-        dots = dwg.g(fill="#ffd21f", stroke="#6a5500", stroke_width=_fmt(0.8 * px))
+                           stroke_width=fmt_number(2.5 * px), stroke_linejoin="round"))
+        dots = dwg.g(fill="#ffd21f", stroke="#6a5500", stroke_width=fmt_number(0.8 * px))
         x0, x1, y0, y1 = _box(dom)
         inside = (snake[:, 0] > x0 - 1) & (snake[:, 0] < x1 + 1) & (snake[:, 1] > y0 - 1) & (snake[:, 1] < y1 + 1)
         for x, y in snake[inside]:
-            dots.add(dwg.circle(center=(_fmt(x), _fmt(y)), r=_fmt(5.0 * px)))
+            dots.add(dwg.circle(center=(fmt_number(x), fmt_number(y)), r=fmt_number(5.0 * px)))
         group.add(dots)
     return finish(dwg, provenance, title or "snaxels on a tessellation")
 
@@ -148,7 +148,7 @@ def anim_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
         if t0 == 0.0:
             keys, vals = keys[1:], vals[1:]
         p.add(dwg.animate(attributeName="visibility", values=";".join(vals),
-                          keyTimes=";".join(_fmt(k) for k in keys), dur=f"{_fmt(total)}s",
+                          keyTimes=";".join(fmt_number(k) for k in keys), dur=f"{fmt_number(total)}s",
                           calcMode="discrete", repeatCount="indefinite"))
         group.add(p)
     return finish(dwg, provenance, title or "snaxel cloud growth")
@@ -221,7 +221,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
     sky.add_stop_color(1, sky_horizon)
     dwg.defs.add(sky)
     group.add(dwg.rect(insert=(x0, y0), size=(x1 - x0, y1 - y0), fill="url(#sky)",
-                       transform=f"translate(0,{_fmt(y0 + y1)}) scale(1,-1)"))
+                       transform=f"translate(0,{fmt_number(y0 + y1)}) scale(1,-1)"))
     depth = dom["cloud__depth"]
     n = max(int(depth.max()) + 1, 1)
     for i in np.argsort(depth, kind="stable"):
@@ -235,13 +235,13 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         clip.add(dwg.path(d=d))
         top = _mix(lit, sky_horizon, 0.4 * far)
         bottom = _mix(shade, sky_horizon, 0.5 * far)
-        outer = dwg.g(transform=f"translate({_fmt(cx)},{_fmt(by)}) scale({_fmt(sc)}) translate({_fmt(-cx)},{_fmt(-by)})")
+        outer = dwg.g(transform=f"translate({fmt_number(cx)},{fmt_number(by)}) scale({fmt_number(sc)}) translate({fmt_number(-cx)},{fmt_number(-by)})")
         g = dwg.g(clip_path=f"url(#cloud{i})")
         g.add(dwg.path(d=d, fill=bottom))
         soft = " ".join(path_data(ring, True) for ring in _opened(pts, 0.07 * (float(pts[:, 1].max()) - by)))
         for k in range(1, int(layers) + 1):
             g.add(dwg.path(d=soft, fill=_mix(bottom, top, (k / layers) ** 0.6),
-                           transform=f"translate(0,{_fmt(dy * k)})"))
+                           transform=f"translate(0,{fmt_number(dy * k)})"))
         outer.add(g)
         group.add(outer)
     return finish(dwg, provenance, title or "snaxel cloudscape")

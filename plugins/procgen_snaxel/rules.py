@@ -78,7 +78,7 @@ class GrowthParams(RuleBase):
         if cfg.sketch:
             if self.bounds is None:
                 raise ValueError("sketch mode needs bounds = [x0, y0, x1, y1] so the sketch can be checked")
-            check_inside(self.sketch_strokes(), self.domain_box())
+            check_inside(self.sketch_strokes(self.recipe_dir), self.domain_box())
         elif self.source is not None and self.bounds is not None:
             x0, y0, x1, y1 = self.bounds
             m = self.margin
@@ -184,9 +184,8 @@ class GrowCloud(GrowthParams):
     """Grow one 2-D cumulus outline with snaxels on a tessellation (thesis seed 004).
 
     One iteration is one Euler step of the whole snake; the run ends (step returns False) once
-    n_c clusters have grown. Creates the contour ``{cloud}`` (refreshed every publish_every steps
-    for the runner's frames),
-    and at the end ``{cloud}_history`` (earlier contours, for the process figure and
+    n_c clusters have grown. Creates the contour ``{cloud}`` (refreshed before each of the
+    runner's frames), and at the end ``{cloud}_history`` (earlier contours, for the process figure and
     animations) and ``{cloud}_view`` (tessellation/snake/snaxel close-up of Figure 1.2).
     Reports N_s, N_v and event counts.
     """
@@ -200,30 +199,26 @@ class GrowCloud(GrowthParams):
                                          "{cloud}_view": "Polylines"}
 
     cloud: str = param("cloud", doc="name of the Polylines holding the cloud outline")
-    publish_every: int = param(0, ge=0, doc="refresh {cloud} every K steps; set it to frames.every "
-                               "when the recipe writes frames (0: only at the end, saves ~10% time)")
     view_window: list[float] | None = param(None, doc="[x0, y0, x1, y1] of the Figure 1.2 close-up; None: auto")
 
     def setup(self, state: State) -> None:
         self._growth, self._topo = self.make_growth(state, state.rng())
         self._box = self.domain_box(self._topo)
-        self._publish(state)
+        self.publish(state)
 
-    def _publish(self, state: State) -> None:
+    def publish(self, state: State) -> None:
+        """Copy the snake into the {cloud} Polylines (the runner calls it before each frame)."""
         g = self._growth
         c = g.snake.ints[:, 2]
         state.add_domain(self.cloud, contour_domain(g.snake.xy(), c, g.cluster_of[c], self._box))
 
     def step(self, state: State) -> bool:
-        changed = self._growth.step()
-        if changed and self.publish_every and self._growth.stats.steps % self.publish_every == 0:
-            self._publish(state)
-        return changed
+        return self._growth.step()
 
     def finish(self, state: State) -> None:
         g = self._growth
         g.snapshot()
-        self._publish(state)
+        self.publish(state)
         state.add_domain(f"{self.cloud}_history", history_domain(g.snapshots, self._box))
         state.add_domain(f"{self.cloud}_view", view_domain(self._topo, g.snake.xy(), self.view_window, self._box))
         for k, v in g.report().items():

@@ -16,7 +16,8 @@ from ..errors import InputError
 from .provenance import provenance_json
 
 
-def _fmt(v: float) -> str:
+def fmt_number(v: float) -> str:
+    """A coordinate as SVG text: 4 decimals, no trailing zeros, no '-0' (deterministic output)."""
     s = f"{v:.4f}".rstrip("0").rstrip(".")
     return "0" if s in ("-0", "") else s
 
@@ -25,7 +26,7 @@ def path_data(points: np.ndarray, closed: bool) -> str:
     """SVG path ``d`` for one line, 4 decimals (deterministic text)."""
     if len(points) == 0:
         return ""
-    body = " L".join(f"{_fmt(x)},{_fmt(y)}" for x, y in points[:, :2])
+    body = " L".join(f"{fmt_number(x)},{fmt_number(y)}" for x, y in points[:, :2])
     return f"M{body}{' Z' if closed else ''}"
 
 
@@ -49,7 +50,7 @@ def new_drawing(bounds: tuple[float, float, float, float], width_px: int,
     w, h = x1 - x0, y1 - y0
     height_px = max(1, int(round(width_px * h / w)))
     dwg = svgwrite.Drawing(size=(f"{width_px}px", f"{height_px}px"), profile="full", debug=False)
-    dwg["viewBox"] = " ".join(_fmt(v) for v in (x0, -y1, w, h))
+    dwg["viewBox"] = " ".join(fmt_number(v) for v in (x0, -y1, w, h))
     if background:
         dwg.add(dwg.rect(insert=(x0, -y1), size=(w, h), fill=background))
     group = dwg.g(transform="scale(1,-1)")
@@ -104,7 +105,7 @@ def polylines_svg(domain: Domain, *, stem: str = "", provenance: dict[str, Any] 
             kw["fill_opacity"] = fill_opacity
         if line_stroke:
             kw["stroke"] = line_stroke
-            kw["stroke_width"] = _fmt(stroke_width * px)
+            kw["stroke_width"] = fmt_number(stroke_width * px)
             kw["stroke_linejoin"] = "round"
         group.add(dwg.path(**kw))
     return finish(dwg, provenance, title)
@@ -125,13 +126,13 @@ def mesh_svg(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | Non
     bounds = _bounds(domain, pts, margin)
     dwg, group, px = new_drawing(bounds, width, background)
     if len(edges):
-        d = " ".join(f"M{_fmt(a[0])},{_fmt(a[1])} L{_fmt(b[0])},{_fmt(b[1])}"
+        d = " ".join(f"M{fmt_number(a[0])},{fmt_number(a[1])} L{fmt_number(b[0])},{fmt_number(b[1])}"
                      for a, b in zip(pts[edges[:, 0]], pts[edges[:, 1]]))
-        group.add(dwg.path(d=d, fill="none", stroke=stroke, stroke_width=_fmt(stroke_width * px)))
+        group.add(dwg.path(d=d, fill="none", stroke=stroke, stroke_width=fmt_number(stroke_width * px)))
     if point_color:
         dots = dwg.g(fill=point_color)
-        r = _fmt(point_radius * px)
+        r = fmt_number(point_radius * px)
         for x, y in pts[:, :2]:
-            dots.add(dwg.circle(center=(_fmt(x), _fmt(y)), r=r))
+            dots.add(dwg.circle(center=(fmt_number(x), fmt_number(y)), r=r))
         group.add(dots)
     return finish(dwg, provenance, title)
