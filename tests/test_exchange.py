@@ -122,7 +122,7 @@ def test_obj_with_vertex_colours_loads_in_trimesh(tmp_path):
 def test_obj_with_texture_atlas_loads_in_trimesh(tmp_path):
     m = _mesh_with_fields()
     files = obj_export(m, stem="ball", uv_field="surface__uv", texture_field="surface__texture")
-    assert set(files) == {"ball.obj", "ball.mtl", "ball.png"}
+    assert set(files) == {"ball.obj", "ball.mtl", "ball_texture.png"}
     for name, data in files.items():
         write(tmp_path / name, data)
     back = trimesh.load(tmp_path / "ball.obj", process=False, force="mesh")
@@ -162,3 +162,22 @@ def test_write_is_atomic_and_leaves_no_temp(tmp_path, monkeypatch):
         write(target, "new")
     assert target.read_text() == "old"
     assert [p.name for p in target.parent.iterdir()] == ["f.txt"]
+
+
+def test_preview_png_shows_the_mesh_in_its_colours():
+    from procgen.exchange import preview_png
+
+    m = _mesh_with_fields()
+    red = np.tile([1.0, 0.0, 0.0], (m.n_vertices, 1))
+    m.add_field("surface__red", red, at="vertex")
+    img = np.asarray(Image.open(io.BytesIO(preview_png(m, color_field="surface__red", width=200, height=160))))
+    assert img.shape == (160, 200, 3)
+    covered = np.any(img != 255, axis=2)
+    assert 0.2 < covered.mean() < 0.9                            # a sphere in the middle, background around
+    assert covered[80, 100] and not covered[2, 2]
+    from scipy.ndimage import binary_erosion
+
+    inner = img[binary_erosion(covered, iterations=2)].astype(int)   # skip anti-aliased rims
+    assert len(inner) > 1000 and (inner[:, 0] > inner[:, 1] + 30).all() and (inner[:, 1] == inner[:, 2]).all()
+    tex = preview_png(m, uv_field="surface__uv", texture_field="surface__texture", width=120, height=90)
+    assert Image.open(io.BytesIO(tex)).size == (120, 90)

@@ -13,7 +13,7 @@ from PIL import Image
 from procgen import InputError, State, load_recipe, run
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.export_mesh import displaced_mesh, obj_files, pack_atlas
-from procgen_surface.preview import render_mesh_png
+from procgen.exchange.preview import render_mesh_png
 from procgen_surface.primitives import cup, lattice
 from procgen_surface.shading import shade_cells
 from procgen.materials import parse_materials
@@ -87,14 +87,14 @@ def test_obj_and_glb_load_back_with_the_expected_counts(tmp_path):
     files = obj_files(dm, atlas, name="s")
     for k, b in files.items():
         (tmp_path / k).write_bytes(b)
-    assert set(files) == {"s.obj", "s.mtl", "s_atlas.png"}
+    assert set(files) == {"s.obj", "s.mtl", "s_texture.png"}
     tm = trimesh.load(tmp_path / "s.obj", process=False, force="mesh")
     assert len(tm.faces) == len(dm.faces)
     assert tm.visual.kind == "texture" and tm.visual.uv is not None
     lines = files["s.obj"].decode().splitlines()
     assert sum(l.startswith("v ") for l in lines) == len(dm.vertices)
     assert sum(l.startswith("f ") for l in lines) == len(dm.faces)
-    assert "map_Kd s_atlas.png" in files["s.mtl"].decode()
+    assert "map_Kd s_texture.png" in files["s.mtl"].decode()
     from procgen_surface.export_mesh import glb_bytes
     g = trimesh.load(io.BytesIO(glb_bytes(dm, atlas)), file_type="glb", force="mesh")
     assert len(g.faces) == len(dm.faces)
@@ -173,7 +173,7 @@ def run_small(host, tmp_path: Path, name: str):
 def test_recipe_end_to_end_is_deterministic_and_readable(host, tmp_path):
     a = run_small(host, tmp_path, "a")
     b = run_small(host, tmp_path, "b")
-    for f in ("cup.obj", "cup.mtl", "cup_atlas.png", "coverage.png", "frames/step3/frame_0030.png"):
+    for f in ("cup.obj", "cup.mtl", "cup_texture.png", "coverage.png", "frames/step3/frame_0030.png"):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
     st = State.load(tmp_path / "a" / "state.npz")
     sc = st.get("cells", SurfaceCells)
@@ -207,9 +207,11 @@ def test_vertex_colour_and_untextured_exports():
     sc = sphere_cells(1, 0.08)
     sc.add_field("surface__rgb", np.tile([1.0, 0.0, 0.0], (sc.n_cells, 1)), at="cell")
     files = surface_obj(sc, stem="v", vertex_colors=True, textured=False)
-    assert set(files) == {"v.obj", "v.mtl"}
+    assert set(files) == {"v.obj"}     # no material: readers then keep the vertex colours
     rows = [l.split() for l in files["v.obj"].decode().splitlines() if l.startswith("v ")]
     assert all(len(r) == 7 and r[4:] == ["1.0000", "0.0000", "0.0000"] for r in rows)
+    back = trimesh.load(io.BytesIO(files["v.obj"]), file_type="obj", force="mesh", process=False)
+    assert np.all(np.asarray(back.visual.vertex_colors)[:, :3] == [255, 0, 0])
     g = trimesh.load(io.BytesIO(surface_glb(sc, textured=False)), file_type="glb", force="mesh")
     assert g.visual.kind == "vertex"
     assert np.all(np.asarray(g.visual.vertex_colors)[:, :3] == [255, 0, 0])

@@ -9,12 +9,11 @@ rectangle in one atlas image (one texel block per cell).
 """
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass
 
 import numpy as np
 
-from procgen.errors import InputError
+from procgen.domains import TriMesh
 
 from .domain import SurfaceCells
 
@@ -192,77 +191,38 @@ def vertex_normals(cells: SurfaceCells) -> np.ndarray:
     return _vertex_normals(cells.vertices, cells.faces)
 
 
-# -- file writers --------------------------------------------------------------------------
+# -- file writers: the core's OBJ/GLB exporters, fed a TriMesh with UV and texture fields ----
 
-def _rows(fmt: str, arr: np.ndarray) -> str:
-    buf = io.StringIO()
-    np.savetxt(buf, arr, fmt=fmt)
-    return buf.getvalue()
+def as_trimesh(mesh: DisplacedMesh, atlas: Atlas | None) -> TriMesh:
+    """The displaced mesh as a core TriMesh: corner UVs, atlas texture and vertex colours as fields.
 
-
-def png_rgba(image: np.ndarray) -> bytes:
-    from PIL import Image
-    arr = np.clip(np.round(image * 255), 0, 255).astype(np.uint8)
-    buf = io.BytesIO()
-    Image.fromarray(arr, "RGBA").save(buf, format="PNG", optimize=False)
-    return buf.getvalue()
-
-
-def obj_files(mesh: DisplacedMesh, atlas: Atlas | None, *, name: str, header: str = "",
-              vertex_colors: bool = False) -> dict[str, bytes]:
-    """OBJ (+ MTL + PNG atlas) bytes; ``v x y z r g b`` when ``vertex_colors``."""
-    out = [header, f"mtllib {name}.mtl\n", "o surface\n"]
-    if vertex_colors:
-        out.append(_rows("v %.6f %.6f %.6f %.4f %.4f %.4f",
-                         np.column_stack([mesh.vertices, mesh.vertex_rgb])))
-    else:
-        out.append(_rows("v %.6f %.6f %.6f", mesh.vertices))
-    files: dict[str, bytes] = {}
-    mtl = ["newmtl surface\n", "Ka 0.2 0.2 0.2\n", "Kd 1.0 1.0 1.0\n", "Ks 0.0 0.0 0.0\n",
-           "d 1.0\n", "illum 1\n"]
-    f1 = mesh.faces + 1
+    Writing OBJ/GLB is then the core exchange's job (procgen.exchange.obj / glb), one writer for
+    every plugin.
+    """
+    tm = TriMesh(mesh.vertices, mesh.faces)
+    tm.add_field("surface__rgb", mesh.vertex_rgb, at="vertex", doc="colour of the cell under each vertex")
     if atlas is not None:
-        uv, t_idx = np.unique(mesh.corner_uv.reshape(-1, 2), axis=0, return_inverse=True)
-        out.append(_rows("vt %.6f %.6f", uv))
-        t1 = t_idx.reshape(-1, 3) + 1
-        out.append("usemtl surface\n")
-        out.append(_rows("f %d/%d %d/%d %d/%d", np.stack([f1, t1], axis=2).reshape(-1, 6)))
-        files[f"{name}_atlas.png"] = png_rgba(atlas.image)
-        mtl += [f"map_Kd {name}_atlas.png\n", f"map_d {name}_atlas.png\n"]
-    else:
-        out.append("usemtl surface\n")
-        out.append(_rows("f %d %d %d", f1))
-    files[f"{name}.obj"] = "".join(out).encode()
-    files[f"{name}.mtl"] = "".join(mtl).encode()
-    return files
+        tm.add_field("surface__uv", mesh.corner_uv, at="face", doc="atlas UV of each face corner")
+        tm.add_field("surface__texture", atlas.image, at="domain", doc="RGBA atlas; alpha 0 = hole")
+    return tm
 
 
-def to_trimesh(mesh: DisplacedMesh, atlas: Atlas | None):
-    """A trimesh.Trimesh with the atlas as texture (vertices split where UVs differ)."""
-    import trimesh
-    from PIL import Image
+def obj_files(mesh: DisplacedMesh, atlas: Atlas | None, *, name: str, provenance: dict | None = None,
+              vertex_colors: bool = False) -> dict[str, bytes]:
+    """OBJ (+ MTL + PNG atlas) bytes through the core exporter; ``v x y z r g b`` when asked."""
+    from procgen.exchange import obj_export
 
-    if atlas is None:
-        tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-        rgb = np.round(mesh.vertex_rgb * 255).astype(np.uint8)
-        tm.visual.vertex_colors = np.column_stack([rgb, np.full(len(rgb), 255, np.uint8)])
-        return tm
-    pairs = np.column_stack([mesh.faces.reshape(-1, 1).astype(float), mesh.corner_uv.reshape(-1, 2)])
-    uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
-    verts = mesh.vertices[uniq[:, 0].astype(np.int64)]
-    img = Image.fromarray(np.clip(np.round(atlas.image * 255), 0, 255).astype(np.uint8), "RGBA")
-    material = trimesh.visual.material.PBRMaterial(baseColorTexture=img, metallicFactor=0.0,
-                                                   roughnessFactor=0.8, alphaMode="MASK",
-                                                   alphaCutoff=0.5, doubleSided=True)
-    visual = trimesh.visual.TextureVisuals(uv=uniq[:, 1:], material=material)
-    return trimesh.Trimesh(verts, inv.reshape(-1, 3), visual=visual, process=False)
+    tm = as_trimesh(mesh, atlas)
+    textured = {"uv_field": "surface__uv", "texture_field": "surface__texture"} if atlas is not None else {}
+    color = {"color_field": "surface__rgb"} if (vertex_colors or atlas is None) else {}
+    return obj_export(tm, stem=name, provenance=provenance, **textured, **color)
 
 
 def glb_bytes(mesh: DisplacedMesh, atlas: Atlas | None, provenance: dict | None = None) -> bytes:
-    import trimesh
+    """Binary glTF through the core exporter (textured, or vertex colours without an atlas)."""
+    from procgen.exchange import glb_export
 
-    scene = trimesh.Scene(to_trimesh(mesh, atlas))
-    if provenance:
-        scene.metadata["procgen"] = provenance
-    return scene.export(file_type="glb")
-
+    tm = as_trimesh(mesh, atlas)
+    if atlas is not None:
+        return glb_export(tm, provenance=provenance, uv_field="surface__uv", texture_field="surface__texture")
+    return glb_export(tm, provenance=provenance, color_field="surface__rgb")

@@ -7,13 +7,12 @@ from typing import Any
 import numpy as np
 
 from procgen import Exporter, InputError, Polylines
-from procgen.exchange.provenance import comment_lines
 from procgen.lighting import light_direction
 
 from .domain import SurfaceCells
 from .export_mesh import (DisplacedMesh, displaced_mesh, glb_bytes, obj_files, pack_atlas,
                           subdivision_level)
-from .preview import camera_basis
+from procgen.exchange.preview import camera_basis
 
 
 def _check(domain: Any, fmt: str) -> SurfaceCells:
@@ -73,8 +72,7 @@ def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
     mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
                                exaggerate=exaggerate, max_triangles=max_triangles, textured=textured)
     name = stem.rsplit("/", 1)[-1]
-    return obj_files(mesh, atlas, name=name, header=comment_lines(provenance),
-                     vertex_colors=vertex_colors)
+    return obj_files(mesh, atlas, name=name, provenance=provenance, vertex_colors=vertex_colors)
 
 
 def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
@@ -101,7 +99,7 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     flat cell colours with two-sided Lambert shading of the (displaced) facets.
     """
     from .export_mesh import cell_under
-    from .preview import face_id_buffer, encode_png, pixel_barycentric, project
+    from procgen.exchange.preview import encode_png, face_id_buffer, pixel_barycentric, project
     from .rules import cell_colors
 
     sc = _check(domain, "surface_png")

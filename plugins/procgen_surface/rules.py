@@ -13,7 +13,7 @@ from procgen.materials import MATERIAL_KEYS, MaterialTable, material_from_spec
 from . import corrosion as cz
 from .domain import SurfaceCells
 from .layers import layer_stack
-from .preview import camera_basis
+from procgen.exchange.preview import camera_basis
 from .primitives import cup, lattice
 from .shading import label_colors, shade_cells
 from .voronoi import P_DIAGONAL, VoronoiGrowth, place_seeds

@@ -10,7 +10,6 @@ import numpy as np
 from ..data import meshes_dir
 from ..domains import PointSet, Polylines, TriMesh
 from ..errors import InputError
-from ..fields import FieldSpec
 from ..params import param
 from ..rules import RuleBase
 from ..state import State

@@ -5,6 +5,7 @@ from .glb import glb_export
 from .heightmap import heightmap_npy, heightmap_png16
 from .image import image_png, png_bytes, to_rgb8
 from .obj import obj_export
+from .preview import preview_png, render_mesh_png
 from .registry import Exporter
 from .svg import mesh_svg, polylines_svg
 from .write import write, write_many
@@ -21,8 +22,10 @@ BUILTIN_EXPORTERS: tuple[Exporter, ...] = (
     Exporter("obj", ("TriMesh",), ".obj", obj_export,
              "Wavefront OBJ + MTL; vertex colours and/or texture atlas PNG with UVs"),
     Exporter("glb", ("TriMesh",), ".glb", glb_export, "binary glTF via trimesh (Blender, web viewers)"),
+    Exporter("preview_png", ("TriMesh",), ".png", preview_png,
+             "a mesh seen from a fixed camera (software renderer): thumbnails, quick looks"),
 )
 
 __all__ = ["Exporter", "write", "write_many", "BUILTIN_EXPORTERS", "png_bytes", "to_rgb8",
            "polylines_svg", "mesh_svg", "heightmap_png16", "heightmap_npy", "image_png",
-           "obj_export", "glb_export"]
+           "obj_export", "glb_export", "preview_png", "render_mesh_png"]

@@ -13,26 +13,43 @@ from .obj import corner_uvs, texture_image, vertex_colors
 def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
                color_field: str | None = None, uv_field: str | None = None,
                texture_field: str | None = None) -> bytes:
-    """GLB bytes; textured meshes are unwelded per face corner so every corner has its own UV."""
+    """GLB bytes; a textured mesh splits vertices only where UVs differ (atlas seams)."""
     import trimesh
-    from PIL import Image
 
     if not isinstance(domain, TriMesh):
         raise InputError(f"glb: expected a TriMesh, got {domain.kind}")
+    scene = trimesh.Scene(mesh_for_export(domain, color_field=color_field, uv_field=uv_field,
+                                          texture_field=texture_field))
+    if provenance:
+        scene.metadata["procgen"] = provenance
+    return scene.export(file_type="glb")
+
+
+def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field: str | None = None,
+                    texture_field: str | None = None) -> Any:
+    """A ``trimesh.Trimesh`` carrying the domain's vertex colours or UV-mapped texture."""
+    import trimesh
+    from PIL import Image
+
+    if (uv_field is None) != (texture_field is None):
+        raise InputError("glb: give both uv_field and texture_field for a textured mesh")
     v = domain.vertices if domain.dim == 3 else np.column_stack([domain.vertices, np.zeros(domain.n_vertices)])
     if uv_field and texture_field:
-        uv = corner_uvs(domain, uv_field).reshape(-1, 2)
-        verts = v[domain.faces].reshape(-1, 3)
-        faces = np.arange(len(verts)).reshape(-1, 3)
-        image = Image.fromarray(texture_image(domain, texture_field))
-        visual = trimesh.visual.TextureVisuals(uv=uv, image=image)
-        mesh = trimesh.Trimesh(vertices=verts, faces=faces, visual=visual, process=False)
+        # glTF has one UV per vertex: split a vertex only where its corners' UVs differ
+        corner_uv = corner_uvs(domain, uv_field).reshape(-1, 2)
+        pairs = np.column_stack([domain.faces.reshape(-1, 1).astype(np.float64), corner_uv])
+        uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        verts = v[uniq[:, 0].astype(np.int64)]
+        tex = texture_image(domain, texture_field)
+        alpha = tex.shape[2] == 4
+        material = trimesh.visual.material.PBRMaterial(
+            baseColorTexture=Image.fromarray(tex), metallicFactor=0.0, roughnessFactor=0.8,
+            alphaMode="MASK" if alpha else "OPAQUE", alphaCutoff=0.5 if alpha else None, doubleSided=True)
+        visual = trimesh.visual.TextureVisuals(uv=uniq[:, 1:], material=material)
+        mesh = trimesh.Trimesh(vertices=verts, faces=inverse.reshape(-1, 3), visual=visual, process=False)
     else:
         mesh = trimesh.Trimesh(vertices=np.array(v), faces=np.array(domain.faces), process=False)
         if color_field:
             rgb = np.round(vertex_colors(domain, color_field) * 255).astype(np.uint8)
             mesh.visual.vertex_colors = np.column_stack([rgb, np.full(len(rgb), 255, np.uint8)])
-    scene = trimesh.Scene(mesh)
-    if provenance:
-        scene.metadata["procgen"] = provenance
-    return scene.export(file_type="glb")
+    return mesh

@@ -73,18 +73,21 @@ def obj_export(domain: Domain, *, stem: str, provenance: dict[str, Any] | None =
     mtl = ["# procgen material\n", "newmtl procgen\n", "Ka 0.2 0.2 0.2\n",
            "Kd %.4f %.4f %.4f\n" % tuple(material), "Ks 0.0 0.0 0.0\n", "d 1.0\n", "illum 1\n"]
     if uv_field:
-        uv = corner_uvs(domain, uv_field).reshape(-1, 2)
+        uv, t_idx = np.unique(corner_uvs(domain, uv_field).reshape(-1, 2), axis=0, return_inverse=True)
         out.append(_rows("vt %.6f %.6f", uv))
-        t1 = np.arange(1, 3 * domain.n_faces + 1).reshape(-1, 3)
+        t1 = t_idx.reshape(-1, 3) + 1
         out.append("usemtl procgen\n")
         if normals:
             out.append(_rows("f %d/%d/%d %d/%d/%d %d/%d/%d", np.stack([f1, t1, f1], axis=2).reshape(-1, 9)))
         else:
             out.append(_rows("f %d/%d %d/%d %d/%d", np.stack([f1, t1], axis=2).reshape(-1, 6)))
         # texture rows are stored top-first, as image files are; UV v=1 is the top row
-        files[f"{name}.png"] = png_bytes(texture_image(domain, texture_field), provenance)
+        tex = texture_image(domain, texture_field)
+        files[f"{name}_texture.png"] = png_bytes(tex, provenance)
         mtl[3] = "Kd 1.0 1.0 1.0\n"
-        mtl.append(f"map_Kd {name}.png\n")
+        mtl.append(f"map_Kd {name}_texture.png\n")
+        if tex.shape[2] == 4:             # alpha cuts holes (corroded-through cells)
+            mtl.append(f"map_d {name}_texture.png\n")
     else:
         if use_mtl:
             out.append("usemtl procgen\n")

@@ -199,3 +199,21 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
         rgb = rgb * (0.35 + 0.65 * np.abs(n @ ld))[:, None]
     ids[rows[hole], cols[hole]] = -1
     return encode_png(np.clip(rgb[~hole], 0, 1), ids, size, background)
+
+
+def preview_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
+                color_field: str | None = None, uv_field: str | None = None,
+                texture_field: str | None = None, width: int = 640, height: int = 480,
+                azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True) -> bytes:
+    """Exporter: a TriMesh seen from a fixed camera as PNG (gallery thumbnails of any mesh).
+
+    Uses the same colour sources as the OBJ/GLB exporters (vertex colours, or UV + texture).
+    """
+    from ..domains import TriMesh
+    from ..errors import InputError
+    from .glb import mesh_for_export
+
+    if not isinstance(domain, TriMesh):
+        raise InputError(f"preview_png: expected a TriMesh, got {domain.kind}")
+    mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field)
+    return render_mesh_png(mesh, (width, height), azimuth=azimuth, elevation=elevation, up=up, lit=lit)
