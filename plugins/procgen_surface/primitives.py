@@ -3,64 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from procgen.builtin.solids import revolve
 from procgen.errors import InputError
-
-
-def revolve(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.ndarray]:
-    """Closed surface of revolution about z of a (k, 2) profile (r, z) that starts and ends on
-    the axis (r = 0).  Returns (vertices, faces) with outward-facing triangles."""
-    p = np.asarray(profile, dtype=float)
-    if len(p) < 3 or p[0, 0] != 0 or p[-1, 0] != 0 or np.any(p[1:-1, 0] <= 0):
-        raise InputError("revolve: profile must start and end on the axis (r = 0) and stay off it between")
-    if sections < 3:
-        raise InputError(f"revolve: need at least 3 sections, got {sections}")
-    ring = p[1:-1]
-    k = len(ring)
-    a = 2 * np.pi * np.arange(sections) / sections
-    verts = np.column_stack([
-        (ring[:, 0][:, None] * np.cos(a)[None, :]).ravel(),
-        (ring[:, 0][:, None] * np.sin(a)[None, :]).ravel(),
-        np.repeat(ring[:, 1], sections)])
-    bottom, top = len(verts), len(verts) + 1
-    verts = np.vstack([verts, [0, 0, p[0, 1]], [0, 0, p[-1, 1]]])
-    s = np.arange(sections)
-    s1 = (s + 1) % sections
-    faces = [np.column_stack([np.full(sections, bottom), s1, s])]
-    for r in range(k - 1):
-        a0, b0 = r * sections + s, r * sections + s1
-        a1, b1 = (r + 1) * sections + s, (r + 1) * sections + s1
-        faces += [np.column_stack([a0, b0, b1]), np.column_stack([a0, b1, a1])]
-    last = (k - 1) * sections
-    faces.append(np.column_stack([np.full(sections, top), last + s, last + s1]))
-    f = np.vstack(faces).astype(np.int64)
-    vol = np.sum(np.einsum("ij,ij->i", verts[f[:, 0]], np.cross(verts[f[:, 1]], verts[f[:, 2]])))
-    if vol < 0:
-        f = f[:, ::-1].copy()
-    return verts, f
-
-
-def revolve_loop(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.ndarray]:
-    """Closed ring surface (genus 1) revolving a closed (k, 2) profile loop with r > 0."""
-    p = np.asarray(profile, dtype=float)
-    if len(p) < 3 or np.any(p[:, 0] <= 0):
-        raise InputError("revolve: a loop profile needs at least 3 points, all with r > 0")
-    if sections < 3:
-        raise InputError(f"revolve: need at least 3 sections, got {sections}")
-    k = len(p)
-    a = 2 * np.pi * np.arange(sections) / sections
-    verts = np.column_stack([(p[:, 0][:, None] * np.cos(a)).ravel(),
-                             (p[:, 0][:, None] * np.sin(a)).ravel(), np.repeat(p[:, 1], sections)])
-    r = np.arange(k)[:, None]
-    s = np.arange(sections)[None, :]
-    a0 = (r * sections + s).ravel()
-    b0 = (r * sections + (s + 1) % sections).ravel()
-    a1 = (((r + 1) % k) * sections + s).ravel()
-    b1 = (((r + 1) % k) * sections + (s + 1) % sections).ravel()
-    f = np.vstack([np.column_stack([a0, b0, b1]), np.column_stack([a0, b1, a1])]).astype(np.int64)
-    vol = np.sum(np.einsum("ij,ij->i", verts[f[:, 0]], np.cross(verts[f[:, 1]], verts[f[:, 2]])))
-    if vol < 0:
-        f = f[:, ::-1].copy()
-    return verts, f
 
 
 def cup_profile(radius: float = 1.0, height: float = 1.1, wall: float = 0.06,

@@ -66,7 +66,7 @@ class RevolvePrimitive(RuleBase):
             raise ValueError("profile must be at least 3 [r, z] points")
 
     def step(self, state: State) -> bool:
-        from .primitives import revolve, revolve_loop
+        from procgen.builtin.solids import revolve, revolve_loop
         p = np.asarray(self.profile, dtype=float)
         v, f = revolve_loop(p, self.sections) if self.loop else revolve(p, self.sections)
         state.add_domain(self.mesh, TriMesh(v, f))
