@@ -252,3 +252,30 @@ def test_any_triangle_is_tiled_exactly(coords, frame, s):
     # centres map back onto the triangle's plane
     n = np.cross(v[1] - v[0], v[2] - v[0])
     assert np.allclose((lay.center3d - v[0]) @ n, 0, atol=1e-9 * longest ** 3)
+
+
+def test_mesh_fields_carry_onto_cells_and_drive_corrosion(host):
+    """A chain's data crosses families: a vertex field of the mesh becomes a cell field."""
+    from procgen.recipes import check_recipe
+    from procgen.runner import run
+
+    steps = [{"rule": "grid.noise", "params": {"nx": 12, "ny": 10, "spacing": 0.1}},
+             {"rule": "grid.to_mesh"},
+             {"rule": "surface.cells", "params": {"mesh": "terrain_mesh", "target_cells": 3000}},
+             {"rule": "surface.layers"},
+             {"rule": "surface.corrosion", "iterations": 3,
+              "params": {"strong_from": "field", "strong_field": "surface__height", "strong_fraction": 0.25}}]
+    st = run(check_recipe({"steps": steps}, host), host, seed=2).state
+    sc = st.get("cells")
+    # height is linear on each triangle, so barycentric interpolation is exact: it equals z of the centre
+    np.testing.assert_allclose(sc["surface__height"], sc.center3d[:, 2], atol=1e-9)
+    strong = sc["corrosion__strong"].astype(bool)
+    assert abs(strong.mean() - 0.25) < 1e-3
+    assert sc["surface__height"][strong].min() >= sc["surface__height"][~strong].max()   # the highest quarter
+    bad = [dict(s) for s in steps]
+    bad[-1] = {"rule": "surface.corrosion", "params": {"strong_from": "field"}}
+    import pytest
+
+    from procgen import RecipeError
+    with pytest.raises(RecipeError, match="strong_field"):
+        check_recipe({"steps": bad}, host)

@@ -7,13 +7,13 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from procgen import FieldSpec, InputError, Polylines, RuleBase, State, TriMesh, param
+from procgen.exchange.preview import camera_basis
 from procgen.lighting import light_direction
 from procgen.materials import MATERIAL_KEYS, MaterialTable, material_from_spec
 
 from . import corrosion as cz
 from .domain import SurfaceCells
 from .layers import layer_stack
-from procgen.exchange.preview import camera_basis
 from .primitives import cup, lattice
 from .shading import label_colors, shade_cells
 from .voronoi import P_DIAGONAL, VoronoiGrowth, place_seeds
@@ -98,6 +98,28 @@ class LatticePrimitive(RuleBase):
 
 # -- cells -----------------------------------------------------------------------------------
 
+def carry_mesh_fields(mesh: TriMesh, sc: SurfaceCells) -> None:
+    """The mesh's fields onto the cells, so families chain (a grid's water paths -> cell weakness).
+
+    Numeric vertex fields are interpolated at each cell centre (barycentric, exact for linear
+    fields); face fields stay on the source faces.
+    """
+    corners = sc.faces[sc.face]                                   # (n, 3) vertex ids per cell
+    a, b, c = (sc.vertices[corners[:, k]] for k in range(3))
+    v0, v1, v2 = b - a, c - a, sc.center3d - a
+    d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
+    d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
+    den = np.where(np.abs(d00 * d11 - d01 * d01) > 0, d00 * d11 - d01 * d01, 1.0)
+    w1, w2 = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
+    bary = np.column_stack([1 - w1 - w2, w1, w2])
+    for name, arr, info in mesh.fields():
+        if info.at == "vertex" and np.issubdtype(arr.dtype, np.number) and arr.dtype != bool:
+            vals = np.asarray(arr, dtype=np.float64)[corners]        # (n, 3, ...)
+            sc.add_field(name, np.einsum("nk,nk...->n...", bary, vals), at="cell", units=info.units, doc=info.doc)
+        elif info.at == "face":
+            sc.add_field(name, arr.copy(), at="face", units=info.units, doc=info.doc)
+
+
 @dataclass(kw_only=True)
 class BuildCells(RuleBase):
     """Converter: 3DSCA cells on every triangle of a TriMesh, with the cross-edge neighbour graph.
@@ -114,6 +136,7 @@ class BuildCells(RuleBase):
     name: ClassVar[str] = "surface.cells"
     uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
     creates: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
+    passes_fields: ClassVar[dict[str, str]] = {"{cells}": "{mesh}"}
     mesh: str = param("mesh", doc="TriMesh to cover with cells")
     cells: str = param("cells", doc="name of the SurfaceCells domain to create")
     cell_size: float | None = param(None, gt=0.0, units="length", doc="explicit cell size s")
@@ -136,6 +159,7 @@ class BuildCells(RuleBase):
         sc = SurfaceCells.from_mesh(m.vertices, m.faces, cell_size=self.cell_size,
                                     target_cells=self.target_cells, k=self.k, frame=self.frame,
                                     neighbours=self.neighbours, max_cells=self.max_cells)
+        carry_mesh_fields(m, sc)
         state.add_domain(self.cells, sc)
         err = sc.edge_errors()
         from .geometry import triangle_metrics
@@ -374,8 +398,10 @@ class SurfaceCorrosion(RuleBase):
     sigma: float = param(1.0, gt=0.0, units="cells", doc="Gaussian direction weights sigma")
     gaussian: list[list[float]] | None = param(None, doc="explicit 3x3 direction weight matrix")
     strong_fraction: float = param(0.3, ge=0.0, le=1.0, doc="fraction of strong cells")
-    strong_from: str = param("random", choices=("random", "noise"),
-                             doc="strong cells at random or from surface noise")
+    strong_from: str = param("random", choices=("random", "noise", "field"),
+                             doc="strong cells at random, from surface noise, or from strong_field")
+    strong_field: str = param("", doc="cell field that ranks cells for strength (strong_from = 'field')")
+    strong_high: bool = param(True, doc="with strong_field: its highest values are strong (False: its lowest)")
     noise_scale: float | None = param(None, gt=0.0, units="length", doc="surface noise feature size")
     coverage: str = param("coverage", doc="Polylines domain receiving the coverage curve")
 
@@ -390,6 +416,8 @@ class SurfaceCorrosion(RuleBase):
         return prm
 
     def validate(self) -> None:
+        if (self.strong_from == "field") != bool(self.strong_field):
+            raise ValueError("strong_field names the field exactly when strong_from = 'field'")
         if self.gaussian is not None and (len(self.gaussian) != 3 or any(len(r) != 3 for r in self.gaussian)):
             raise ValueError("gaussian must be a 3x3 matrix")
         if self.initial_seeds > self.max_seeds:
@@ -412,6 +440,12 @@ class SurfaceCorrosion(RuleBase):
             from .layers import value_noise_3d
             scale = self.noise_scale or 0.1 * float(np.linalg.norm(np.ptp(sc.vertices, axis=0)))
             noise = value_noise_3d(sc.center3d, rng, scale=scale)
+        elif self.strong_from == "field":
+            if self.strong_field not in sc or sc.field_info(self.strong_field).at != "cell":
+                raise InputError(f"surface.corrosion: strong_field {self.strong_field!r} is not a cell field of "
+                                 f"{self.cells!r} (cell fields: {', '.join(sc.field_names('cell'))})")
+            noise = np.asarray(sc[self.strong_field], dtype=float).reshape(sc.n_cells, -1)[:, 0]
+            noise = noise if self.strong_high else -noise
         alive = sc.alive()
         strong = cz.strong_mask(sc.n_cells, self.strong_fraction, rng, noise)
         status = np.where(alive, cz.NORMAL, cz.HOLE).astype(np.int8)
