@@ -174,3 +174,15 @@ def test_exporter_default_field_must_exist(host):
     _err(host, d, "option field='surface__color': domain 'terrain' has no field")
     d["outputs"][0]["options"] = {"field": "surface__height"}
     check_recipe(d, host, "r.toml")
+
+
+def test_chain_across_families_with_wrong_domain_is_refused(host):
+    # a Grid handed to the surface automaton (which needs a TriMesh) fails in one line naming the step
+    d = {"steps": [{"rule": "grid.noise", "params": {"grid": "terrain", "nx": 8, "ny": 8}},
+                   {"rule": "surface.cells", "params": {"mesh": "terrain", "target_cells": 100}}]}
+    msg = _err(host, d, "needs domain 'terrain' to be a TriMesh, but an earlier step made it a Grid")
+    assert "steps[1] (surface.cells)" in msg
+    # a snaxel growth asked to run on surface cells
+    d = {"steps": [{"rule": "mesh.primitive"}, {"rule": "surface.cells", "params": {"target_cells": 100}},
+                   {"rule": "snaxel.grow", "params": {"mesh": "cells"}}]}
+    _err(host, d, r"steps\[2\] \(snaxel.grow\): needs domain 'cells' to be a TriMesh, but an earlier step made it a SurfaceCells")
