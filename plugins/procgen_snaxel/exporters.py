@@ -49,14 +49,16 @@ def _mix(a: str, b: str, t: float) -> str:
 # -- the cloud itself ---------------------------------------------------------------------------
 def cloud_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, fill: str = "#ffffff",
               stroke: str | None = None, stroke_width: float = 1.0, gradient: Sequence[str] | None = None,
-              smooth: int = 0, background: str | None = "#8fb8e0", width: int = 800, title: str = "") -> bytes:
+              smooth: int = 0, background: str | None = "#8fb8e0", width: int = 800, title: str = "",
+              crop: bool = False) -> bytes:
     """The outline as one filled closed path; smoothing (Chaikin passes) is off by default
-    because it softens the sharp detail the thesis claims over earlier systems."""
+    because it softens the sharp detail the thesis claims over earlier systems. The viewBox is
+    the domain, or the cloud's own box (plus 4%) with ``crop``."""
     dom = _need(domain, "cloud_svg")
     if not 0 <= int(smooth) <= 6:
         raise InputError(f"cloud_svg: smooth = {smooth} passes, expected 0..6")
     lines = [chaikin(dom.line(i), bool(dom.closed[i]), int(smooth)) for i in range(dom.n_lines)]
-    out = Polylines.from_list(lines, closed=dom.closed, bounds=_box(dom))
+    out = Polylines.from_list(lines, closed=dom.closed, bounds=_crop_box(dom, 0.04) if crop else _box(dom))
     return polylines_svg(out, provenance=provenance, fill=fill, stroke=stroke, stroke_width=stroke_width,
                          gradient=gradient, background=background, width=width, margin=0.0,
                          title=title or "snaxel cloud")
