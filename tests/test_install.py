@@ -84,3 +84,18 @@ def test_wheel_ships_plugins_recipes_and_gallery(tmp_path):
     text = zipfile.ZipFile(wheel).read(ep).decode()
     for name in _declared_entry_points():
         assert f"{name} = " in text
+
+
+def test_base_paths_never_import_optional_extras():
+    """dask and numba are extras: importing procgen, its plugins and the CLI must not load them."""
+    import subprocess
+    import sys
+
+    code = ("import sys, procgen, procgen.cli, procgen.sweep, procgen.gallery\n"
+            "h = procgen.get_plugin_manager(); h.rules; h.exporters\n"
+            "from procgen.recipes import load_recipe; from procgen.runner import run\n"
+            "run(load_recipe('demo/basics', h), h)\n"
+            "bad = [m for m in ('dask', 'distributed', 'numba') if m in sys.modules]\n"
+            "assert not bad, bad\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
