@@ -92,6 +92,9 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
         p = main.parent / inc
         if p.is_file():
             files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
+    if path is None:
+        for p in host.gallery_lists():      # entries that installed plugins contribute
+            files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
     entries: list[Entry] = []
     seen: set[str] = set()
     for p, d in files:

@@ -70,3 +70,18 @@ def procgen_recipe_dirs() -> "list[Path]":
         def procgen_recipe_dirs():
             return [Path(__file__).parent / "recipes"]
     """
+
+
+@hookspec
+def procgen_gallery_lists() -> "list[Path]":
+    """Return gallery list files (TOML with ``[[entry]]`` tables) that this plugin adds.
+
+    Entries name recipes (usually the plugin's own, from ``procgen_recipe_dirs``) and appear in
+    ``procgen gallery`` and its contact sheet beside the built-in families.
+
+    Example::
+
+        @procgen.hookimpl
+        def procgen_gallery_lists():
+            return [Path(__file__).parent / "gallery.toml"]
+    """

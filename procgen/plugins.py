@@ -157,6 +157,10 @@ class PluginHost:
         dirs += [Path(p) for _, p in self._collect("procgen_recipe_dirs")]
         return [d for d in dirs if d is not None and d.is_dir()]
 
+    def gallery_lists(self) -> list[Path]:
+        """Gallery list files contributed by plugins (the built-in list is gallery/gallery.toml)."""
+        return [Path(p) for _, p in self._collect("procgen_gallery_lists") if Path(p).is_file()]
+
     def rule(self, name: str) -> type[RuleBase]:
         from .params import did_you_mean
 

@@ -16,7 +16,8 @@ TESTS = Path(__file__).parent
 
 
 def test_there_are_hooks():
-    assert set(HOOKS) == {"procgen_register_rules", "procgen_register_exporters", "procgen_recipe_dirs"}
+    assert set(HOOKS) == {"procgen_register_rules", "procgen_register_exporters", "procgen_recipe_dirs",
+                          "procgen_gallery_lists"}
 
 
 @pytest.mark.parametrize("hook", HOOKS)
@@ -60,15 +61,22 @@ def test_throwaway_plugin_adds_rule_exporter_and_recipe_dir(tmp_path):
     def procgen_recipe_dirs():
         return [tmp_path]
 
+    (tmp_path / "g.toml").write_text('[[entry]]\nrecipe = "fam/one"\ntitle = "noop"\n')
+
+    def procgen_gallery_lists():
+        return [tmp_path / "g.toml"]
+
     mod = plugin_module("throwaway", procgen_register_rules=procgen_register_rules,
                         procgen_register_exporters=procgen_register_exporters,
-                        procgen_recipe_dirs=procgen_recipe_dirs)
+                        procgen_recipe_dirs=procgen_recipe_dirs, procgen_gallery_lists=procgen_gallery_lists)
     host = get_plugin_manager([mod])
     assert "test.noop" in host.rules and "kindname" in host.exporters
     assert tmp_path in host.recipe_dirs()
+    from procgen.gallery import load_gallery
     from procgen.recipes import load_recipe
 
     assert load_recipe("fam/one", host).steps[0].rule.name == "test.noop"
+    assert [e.recipe for e in load_gallery(host, ["fam/*"])] == ["fam/one"]
 
 
 def test_invalid_registrations_mark_plugin_broken():

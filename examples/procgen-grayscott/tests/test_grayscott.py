@@ -16,6 +16,13 @@ def test_registered_through_entry_point():
     assert "grayscott/coral" in __import__("procgen.recipes", fromlist=["x"]).list_recipes(host)
 
 
+def test_gallery_entry_is_contributed():
+    from procgen.gallery import load_gallery
+
+    entries = load_gallery(get_plugin_manager(), ["grayscott/*"])
+    assert [e.recipe for e in entries] == ["grayscott/coral"]
+
+
 def test_contract():
     check_rule_contract(GrayScott)
 

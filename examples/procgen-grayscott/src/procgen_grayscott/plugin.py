@@ -16,3 +16,8 @@ def procgen_register_rules():
 @procgen.hookimpl
 def procgen_recipe_dirs():
     return [Path(__file__).parent / "recipes"]
+
+
+@procgen.hookimpl
+def procgen_gallery_lists():
+    return [Path(__file__).parent / "gallery.toml"]
