@@ -5,7 +5,7 @@ the snake topology build, the growth, and the share of the growth spent in per-e
 (births/merges/holes), plus steps, births, merges, holes, N_s, N_v. Baseline: the digest's
 throw-away pure-Python reading needed 6-19 s for the growth alone on the same settings.
 
-    python benchmarks/snaxel_clouds.py [--seeds 1 2 3] [--radius 4]
+    python benchmarks/clouds.py [--seeds 1 2 3] [--radius 4]
 """
 from __future__ import annotations
 
