@@ -275,3 +275,33 @@ def parse_materials(specs: Sequence[Any], where: str = "layers") -> MaterialTabl
         raise InputError(f"{where}: the material list is empty")
     mats = tuple(material_from_spec(s, f"{where}[{i}]") for i, s in enumerate(specs))
     return MaterialTable(mats)
+
+
+def split_layer_specs(specs: Any, geometry_keys: Sequence[str],
+                      where: str = "layers") -> tuple[MaterialTable, list[dict[str, Any]]]:
+    """Recipe layers (preset names, or tables mixing material and geometry keys) -> materials
+    and the raw geometry tables, bottom first.
+
+    Both layered plugins (2.5-D grids and mesh cells) read the same layer syntax through this;
+    each then checks the geometry keys it knows.
+    """
+    import difflib
+
+    if isinstance(specs, (str, bytes)) or not isinstance(specs, Sequence) or len(specs) == 0:
+        raise InputError(f"{where}: give a non-empty list of layers (preset names or tables)")
+    mats, geos = [], []
+    for i, spec in enumerate(specs):
+        w = f"{where}[{i}]"
+        spec = {"preset": spec} if isinstance(spec, str) else spec
+        if not isinstance(spec, Mapping):
+            raise InputError(f"{w}: a layer is a preset name or a table, got {spec!r}")
+        geo = {k: v for k, v in spec.items() if k in geometry_keys}
+        mat = {k: v for k, v in spec.items() if k not in geometry_keys}
+        unknown = [k for k in mat if k not in MATERIAL_KEYS and k != "preset"]
+        if unknown:
+            near = difflib.get_close_matches(unknown[0], list(MATERIAL_KEYS) + list(geometry_keys), n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise InputError(f"{w}: unknown layer key {unknown[0]!r}{hint}")
+        mats.append(material_from_spec(mat, w))
+        geos.append(geo)
+    return MaterialTable(tuple(mats)), geos

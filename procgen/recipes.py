@@ -287,6 +287,10 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
             if not _kind_fits(flow.domains[dname], kind):
                 raise RecipeError(f"{where}: needs domain {dname!r} to be a {kind}, "
                                   f"but an earlier step made it a {flow.domains[dname]}")
+        try:
+            rule.check_chain([s.rule for s in steps])
+        except (ValueError, ProcgenError) as exc:
+            raise RecipeError(f"{where}: {exc}") from None
         specs = rule.field_specs()
         for spec in specs:
             if spec.intent in ("in", "inout") and (spec.domain, spec.name) not in flow.fields:

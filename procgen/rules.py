@@ -71,6 +71,14 @@ class RuleBase:
     def validate(self) -> None:
         """Cross-parameter checks; raise ValueError('what is wrong') for a bad combination."""
 
+    def check_chain(self, earlier: "list[RuleBase]") -> None:
+        """Check this step against the recipe's earlier steps (their rule instances, in order).
+
+        For what the data flow cannot see: a layer name this rule uses that an earlier rule's
+        parameters define. Raise ValueError('what is wrong'); ``procgen check`` reports it as a
+        one-line error naming this step.
+        """
+
     def memory_estimate(self) -> int:
         """Bytes this rule will allocate at most (from its parameters); 0 if small or unknown.
 

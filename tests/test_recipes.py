@@ -186,3 +186,14 @@ def test_chain_across_families_with_wrong_domain_is_refused(host):
     d = {"steps": [{"rule": "mesh.primitive"}, {"rule": "surface.cells", "params": {"target_cells": 100}},
                    {"rule": "snaxel.grow", "params": {"mesh": "cells"}}]}
     _err(host, d, r"steps\[2\] \(snaxel.grow\): needs domain 'cells' to be a TriMesh, but an earlier step made it a SurfaceCells")
+
+
+def test_layer_names_are_checked_against_earlier_steps(host):
+    surf = {"rule": "water.surface", "params": {"nx": 16, "ny": 16, "layers": ["stone", "copper", "patina"]}}
+    msg = _err(host, {"steps": [surf, {"rule": "water.corrode", "params": {"metal": "coper"}}]},
+               "did you mean 'copper'")
+    assert "steps[1] (water.corrode)" in msg
+    cells = [{"rule": "mesh.primitive"}, {"rule": "surface.cells", "params": {"target_cells": 100}},
+             {"rule": "surface.layers", "params": {"layers": ["copper", "patina"]}}]
+    _err(host, {"steps": cells + [{"rule": "surface.corrosion", "params": {"product": "patena"}}]},
+         r"steps\[3\] \(surface.corrosion\).*did you mean 'patina'")

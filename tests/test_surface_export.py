@@ -10,7 +10,7 @@ import pytest
 import trimesh
 from PIL import Image
 
-from procgen import InputError, State, load_recipe, run
+from procgen import RecipeError, State, load_recipe, run
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.export_mesh import displaced_mesh, obj_files, pack_atlas
 from procgen.exchange.preview import render_mesh_png
@@ -198,8 +198,8 @@ def test_bad_recipe_parameters_are_refused(host, tmp_path):
     with pytest.raises(Exception, match="exactly one"):
         load_recipe(p, host)
     p.write_text(SMALL.replace('{ preset = "patina", thickness = 0.0 }', '{ preset = "patina", thikness = 0.0 }'))
-    with pytest.raises(InputError, match="thikness"):
-        run(load_recipe(p, host), host, progress=False)
+    with pytest.raises(RecipeError, match=r"steps\[2\] \(surface.layers\).*thikness"):
+        load_recipe(p, host)            # refused by procgen check, before any compute
 
 
 def test_vertex_colour_and_untextured_exports():

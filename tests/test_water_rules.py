@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from procgen import InputError, run
+from procgen import RecipeError, run
 from procgen.recipes import load_recipe
 
 SMALL = [
@@ -92,7 +92,7 @@ def test_bad_input_gives_one_line_errors_from_check(tmp_path, layers, msg):
 
 
 def test_unknown_layer_in_corrosion_is_a_one_line_input_error(host, tmp_path):
-    rec = load_recipe("terrain/plate-2-1", host, ["steps.0.params.nx=16", "steps.0.params.ny=16",
-                                                  "steps.2.params.metal=coper", "steps.2.iterations=2"])
-    with pytest.raises(InputError, match="no layer named 'coper' \\(did you mean 'copper'\\?\\)"):
-        run(rec, host, out_dir=None, progress=False)
+    with pytest.raises(RecipeError, match=r"steps\[2\] \(water.corrode\): metal: no layer named 'coper' "
+                                          r"\(did you mean 'copper'\?\)"):
+        load_recipe("terrain/plate-2-1", host, ["steps.0.params.nx=16", "steps.0.params.ny=16",
+                                                "steps.2.params.metal=coper", "steps.2.iterations=2"])

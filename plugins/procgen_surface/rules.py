@@ -2,14 +2,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 
 from procgen import FieldSpec, InputError, Polylines, RuleBase, State, TriMesh, param
 from procgen.exchange.preview import camera_basis
 from procgen.lighting import light_direction
-from procgen.materials import MATERIAL_KEYS, MaterialTable, material_from_spec
+from procgen.materials import MaterialTable, split_layer_specs
 
 from . import corrosion as cz
 from .domain import SurfaceCells
@@ -188,29 +188,17 @@ LAYER_GEOMETRY_KEYS = ("thickness", "noise", "hurst", "smoothness")
 
 
 def parse_surface_layers(specs: Any, where: str = "layers") -> tuple[MaterialTable, list[dict]]:
-    """Recipe layer list -> (MaterialTable, geometry dicts); same keys as the 2.5D plugin."""
-    if isinstance(specs, (str, bytes)) or not isinstance(specs, (list, tuple)) or not specs:
-        raise InputError(f"{where}: give a non-empty list of layers (preset names or tables)")
-    mats, geos = [], []
-    for i, spec in enumerate(specs):
-        w = f"{where}[{i}]"
-        spec = {"preset": spec} if isinstance(spec, str) else spec
-        if not isinstance(spec, Mapping):
-            raise InputError(f"{w}: a layer is a preset name or a table, got {spec!r}")
-        geo = {k: spec[k] for k in LAYER_GEOMETRY_KEYS if k in spec}
-        mat = {k: v for k, v in spec.items() if k not in LAYER_GEOMETRY_KEYS}
-        bad = [k for k in mat if k not in MATERIAL_KEYS and k != "preset"]
-        if bad:
-            raise InputError(f"{w}: unknown layer key {bad[0]!r} (geometry keys: "
-                             f"{', '.join(LAYER_GEOMETRY_KEYS)})")
+    """Recipe layer list -> (MaterialTable, geometry dicts); the shared layer syntax of both plugins."""
+    table, raw = split_layer_specs(specs, LAYER_GEOMETRY_KEYS, where)
+    geos = []
+    for i, geo in enumerate(raw):
         for key, lo in (("thickness", 0.0), ("noise", 0.0), ("smoothness", 0.0), ("hurst", 0.0)):
             val = geo.get(key, 0.0)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < lo:
-                raise InputError(f"{w}: {key} must be a finite number >= {lo}, got {val!r}")
-        mats.append(material_from_spec(mat, w))
+                raise InputError(f"{where}[{i}]: {key} must be a finite number >= {lo}, got {val!r}")
         geos.append({"thickness": float(geo.get("thickness", 0.0)), "noise": float(geo.get("noise", 0.0)),
                      "hurst": float(geo.get("hurst", 0.7)), "smoothness": float(geo.get("smoothness", 1.0))})
-    return MaterialTable(tuple(mats)), geos
+    return table, geos
 
 
 @dataclass(kw_only=True)
@@ -238,6 +226,12 @@ class SurfaceLayers(RuleBase):
                                   "thickness, noise, hurst, smoothness)")
     noise_scale: float | None = param(None, gt=0.0, units="length",
                                       doc="feature size of the noise (default: 1/4 of the mesh size)")
+
+    def validate(self) -> None:
+        try:
+            parse_surface_layers(self.layers)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
 
     def step(self, state: State) -> bool:
         sc = state.get(self.cells, SurfaceCells)
@@ -422,6 +416,15 @@ class SurfaceCorrosion(RuleBase):
             raise ValueError("gaussian must be a 3x3 matrix")
         if self.initial_seeds > self.max_seeds:
             raise ValueError("initial_seeds must not exceed max_seeds")
+
+    def check_chain(self, earlier: list[RuleBase]) -> None:
+        """Consumed and product layers must exist in the surface.layers stack of these cells."""
+        made = [r for r in earlier if r.name == "surface.layers" and getattr(r, "cells", None) == self.cells]
+        if made:
+            table = parse_surface_layers(made[-1].layers)[0]
+            for name in self.consume:
+                table.index(name, "consume")
+            table.index(self.product, "product")
 
     def setup(self, state: State) -> None:
         sc = state.get(self.cells, SurfaceCells)

@@ -16,7 +16,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from procgen.errors import InputError
-from procgen.materials import MATERIAL_KEYS, MaterialTable, material_from_spec
+from procgen.materials import MaterialTable, split_layer_specs
 
 from .noise import midpoint_displacement, rank_normalise, smooth
 
@@ -55,26 +55,9 @@ def _num(d: Mapping[str, Any], key: str, where: str, lo: float | None = None,
 
 def parse_layers(specs: Sequence[Any], where: str = "layers") -> tuple[MaterialTable, list[LayerGeometry]]:
     """Split recipe layer specs into a MaterialTable and per-layer geometry (bottom first)."""
-    if isinstance(specs, (str, bytes)) or not isinstance(specs, Sequence) or len(specs) == 0:
-        raise InputError(f"{where}: give a non-empty list of layers (preset names or tables)")
-    mats, geos = [], []
-    for i, spec in enumerate(specs):
-        w = f"{where}[{i}]"
-        if isinstance(spec, str):
-            spec = {"preset": spec}
-        if not isinstance(spec, Mapping):
-            raise InputError(f"{w}: a layer is a preset name or a table, got {spec!r}")
-        geo_d = {k: v for k, v in spec.items() if k in GEOMETRY_KEYS}
-        mat_d = {k: v for k, v in spec.items() if k not in GEOMETRY_KEYS}
-        unknown = [k for k in mat_d if k not in MATERIAL_KEYS and k != "preset"]
-        if unknown:
-            import difflib
-            near = difflib.get_close_matches(unknown[0], list(MATERIAL_KEYS) + list(GEOMETRY_KEYS), n=1)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
-            raise InputError(f"{w}: unknown layer key {unknown[0]!r}{hint}")
-        mats.append(material_from_spec(mat_d, w))
-        geos.append(_geometry(geo_d, f"{w} ({mats[-1].name})"))
-    return MaterialTable(tuple(mats)), geos
+    table, geo_dicts = split_layer_specs(specs, GEOMETRY_KEYS, where)
+    return table, [_geometry(g, f"{where}[{i}] ({m.name})")
+                   for i, (g, m) in enumerate(zip(geo_dicts, table.materials))]
 
 
 def _geometry(d: Mapping[str, Any], where: str) -> LayerGeometry:

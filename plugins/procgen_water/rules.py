@@ -13,7 +13,7 @@ from . import particles as P
 from .corrosion import REGROUP_POWERS, CorrosionParams, corrosion_step, weak_cells, weakness_score
 from .layers import base_surface, check_grid, layer_thickness, parse_layers
 from .render import render_layers, water_depth_map
-from .state_io import (drops_from_domain, drops_to_domain, ensure_water_fields, load_table,
+from .state_io import (drops_from_domain, drops_to_domain, ensure_water_fields,
                        store_table, surface_view, update_derived)
 
 SURF = "{grid}"
@@ -292,6 +292,16 @@ class Corrosion(RuleBase):
     k1: float = param(_CP.k1, ge=0.0, units="length/step", doc="metal eaten per step")
     k2: float = param(_CP.k2, ge=0.0, units="length/step", doc="oxide grown per step")
     k3: float = param(_CP.k3, ge=0.0, units="length", doc="maximum oxide thickness")
+
+    def check_chain(self, earlier: list[RuleBase]) -> None:
+        """The metal and oxide must be layers of the water.surface that made the grid."""
+        from .layers import parse_layers
+
+        made = [r for r in earlier if r.name == "water.surface" and getattr(r, "grid", None) == self.grid]
+        if made:
+            table = parse_layers(made[-1].layers)[0]
+            table.index(self.metal, "metal")
+            table.index(self.oxide, "oxide")
 
     def setup(self, state: State) -> None:
         g, s, table = surface_view(state, self.grid)
