@@ -16,7 +16,7 @@ import time
 import numpy as np
 import trimesh
 
-from procgen_surface import corrosion as cz
+from procgen.ca import corrosion as cz
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.primitives import cup
 from procgen_surface.voronoi import VoronoiGrowth, place_seeds

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from procgen_surface import corrosion as cz
+from procgen.ca import corrosion as cz
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.layers import layer_stack, stacked_heights, value_noise_3d
-from procgen_surface.stepping import grid_graph
+from procgen.ca.graph import grid_graph
 
 
 def fresh_state(n: int, rng: np.random.Generator, strong: float = 0.3, metal: float = 1.0,

@@ -11,7 +11,7 @@ from scipy.signal import convolve2d
 from scipy.spatial import cKDTree
 
 from procgen_surface.domain import SurfaceCells
-from procgen_surface.stepping import grid_graph, weighted_top_k, pick_one_per_row
+from procgen.ca.graph import grid_graph, weighted_top_k, pick_one_per_row
 from procgen_surface.voronoi import P_DIAGONAL, VoronoiGrowth, place_seeds
 
 

@@ -19,7 +19,7 @@ from procgen.materials import MaterialTable, parse_materials
 
 from .geometry import CellLayout, FaceFrames, build_cells, choose_cell_size
 from .neighbours import build_neighbours, orientation_errors
-from .stepping import CellGraph
+from procgen.ca.graph import CellGraph
 
 _TOPOLOGY = ("vertices", "faces", "origin", "ex", "ey", "corners2d", "valid", "nx", "ny",
              "grid_offset", "lookup", "face", "ij", "comp_in", "area", "center2d", "center3d",

@@ -12,7 +12,7 @@ import numpy as np
 from procgen.errors import InputError
 from procgen.noise import value_noise_3d  # noqa: F401  (re-exported for this plugin)
 
-from .stepping import CellGraph
+from procgen.ca.graph import CellGraph
 
 
 def smooth_on_graph(values: np.ndarray, graph: CellGraph, iterations: int) -> np.ndarray:

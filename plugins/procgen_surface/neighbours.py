@@ -22,11 +22,10 @@ from procgen.errors import InputError
 
 from .geometry import CellLayout, edge_half_planes
 
-#: Moore slots as (di, dj) = (column, row) offsets; slot k and 7 - k are opposite.
-MOORE = np.array([(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)], np.int64)
+from procgen.ca.graph import IS_DIAGONAL, MOORE  # noqa: F401  (the shared Moore convention)
+
 SIDE_SLOTS = np.array([1, 3, 4, 6])
 DIAGONAL_SLOTS = np.array([0, 2, 5, 7])
-IS_DIAGONAL = np.array([True, False, True, False, False, True, False, True])
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from procgen.exchange.preview import camera_basis
 from procgen.lighting import light_direction
 from procgen.materials import MaterialTable, split_layer_specs
 
-from . import corrosion as cz
+from procgen.ca import corrosion as cz
 from .domain import SurfaceCells
 from .layers import layer_stack
 from .primitives import cup, lattice
@@ -483,7 +483,7 @@ class SurfaceCorrosion(RuleBase):
 
     def step(self, state: State) -> bool:
         sc = state.get(self.cells, SurfaceCells)
-        changed = cz.corrosion_step(sc.graph, self._st, self._prm, state.rng())
+        changed = cz.corrosion_step(sc.graph, self._st, self._prm, state.rng()).changed
         self._write(sc)
         self._log.add(self._changed_fraction(), changed / max(sc.n_cells, 1))
         state.add_domain(self.coverage, self._log.domain())

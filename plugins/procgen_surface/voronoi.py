@@ -13,7 +13,7 @@ import numpy as np
 
 from procgen.errors import InputError
 
-from .stepping import CellGraph, pick_one_per_row
+from procgen.ca.graph import CellGraph, pick_one_per_row
 
 P_DIAGONAL = float(np.sqrt(2.0) / 2.0 - 0.5)   # 0.20711: the thesis's circle-growing value
 

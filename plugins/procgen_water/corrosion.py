@@ -1,6 +1,7 @@
 """Corrosion cellular automaton on the 2.5D surface (thesis 2.4.1, Fig. 2.7; formalised in ch. 4).
 
-Per step, synchronously (double-buffered, digest 16):
+The attack/defence kernel is the one the mesh plugin runs too (procgen.ca.corrosion), here on
+the raster's 8-neighbour graph. Per step, synchronously (double-buffered, digest 16):
   (b) new seeds among weak, valid cells: floor(seed_rate * cells) per step, at most max_seeds
       in total;
   (c) each corroded cell attacks n_a = clamp(1 + age // age_step, 1, min(n_valid, 7)) of its
@@ -21,16 +22,18 @@ then thresholded (the 'binary' function) at the quantile giving exactly the weak
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from scipy import ndimage
 
+from procgen.ca import corrosion as ca
+from procgen.ca.graph import MOORE, CellGraph, grid_graph
 from procgen.errors import InputError
 
 from .noise import rank_normalise
 
 REGROUP_POWERS = {"none": 0, "linear": 1, "square": 2, "cubic": 3, "x4": 4}
-OFFSETS = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)])  # (dy, dx)
 MAX_ATTACKS = 7          # the thesis: 1 to 7 attempts, never 8
 
 
@@ -108,81 +111,40 @@ class CorrosionStats:
     seed_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
-def _neighbours(shape: tuple[int, int], cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 8) neighbour cell ids and in-grid mask."""
-    ny, nx = shape
-    iy, ix = cells // nx, cells % nx
-    ny_ = iy[:, None] + OFFSETS[None, :, 0]
-    nx_ = ix[:, None] + OFFSETS[None, :, 1]
-    inside = (ny_ >= 0) & (ny_ < ny) & (nx_ >= 0) & (nx_ < nx)
-    return np.where(inside, ny_ * nx + nx_, 0), inside
-
-
-def _count8(mask: np.ndarray) -> np.ndarray:
-    """Number of True 8-neighbours of every cell (zero padding at the border)."""
-    k = np.ones((3, 3), dtype=np.int64)
-    k[1, 1] = 0
-    return ndimage.convolve(mask.astype(np.int64), k, mode="constant", cval=0)
+@lru_cache(maxsize=8)
+def _graph(shape: tuple[int, int]) -> CellGraph:
+    """The raster's 8-neighbour cell graph (cached: the grid never changes shape)."""
+    return grid_graph(*shape)
 
 
 def corrosion_step(*, corroded: np.ndarray, age: np.ndarray, hole: np.ndarray, weak: np.ndarray,
                    metal: np.ndarray, oxide: np.ndarray, covered: np.ndarray, height: np.ndarray,
                    spacing: float, p: CorrosionParams, rng: np.random.Generator,
                    seeds_used: int) -> CorrosionStats:
-    """One synchronous CA step; every (ny, nx) array is updated in place."""
+    """One synchronous step on the raster: the shared kernel (procgen.ca.corrosion) on the grid's
+    graph, attacks tilted downhill; every (ny, nx) array is updated in place."""
     shape = corroded.shape
-    ncell = corroded.size
-    st = CorrosionStats()
-    valid = ~corroded & ~hole & (metal > 0) & ~covered
-    # (c) attacks from the corroded cells of the previous state
-    att = np.flatnonzero((corroded & ~hole).ravel())
-    newly = np.zeros(ncell, dtype=bool)
-    if att.size:
-        nb, inside = _neighbours(shape, att)
-        ok = inside & valid.ravel()[nb]
-        n_vc = ok.sum(axis=1)
-        a_age = age.ravel()[att]
-        n_a = np.clip(1 + a_age // max(p.age_step, 1), 1, np.minimum(n_vc, MAX_ATTACKS))
-        n_a = np.where(n_vc > 0, n_a, 0)
-        h = height.ravel()
-        dist = np.hypot(OFFSETS[:, 0], OFFSETS[:, 1])[None, :]
-        slope = (h[att][:, None] - h[nb]) / (dist * spacing)
-        logw = -(dist ** 2) / (2 * p.sigma ** 2) + p.downhill * slope
-        keys = np.where(ok, logw - np.log(-np.log(rng.random(ok.shape))), -np.inf)   # Gumbel top-k
-        rank = np.argsort(np.argsort(-keys, axis=1, kind="stable"), axis=1, kind="stable")
-        chosen = (rank < n_a[:, None]) & ok
-        st.attacks = int(chosen.sum())
-        per = chosen.sum(axis=1)
-        st.max_attacks_per_cell = int(per.max(initial=0))
-        st.max_allowed_violation = int(np.sum(per > np.minimum(n_vc, MAX_ATTACKS)))
-        helpers = _count8(corroded & ~hole).ravel()
-        strong = ~weak
-        strong_nb = _count8(strong).ravel()
-        attack = p.a0 + p.a1 * a_age + p.a2 * helpers[att]
-        ai, di = np.nonzero(chosen)
-        target = nb[ai, di]
-        defence = p.b0 + p.b1 * strong_nb[target] + p.strong_bonus * strong.ravel()[target]
-        win = attack[ai] + p.noise * rng.random(ai.size) > defence
-        newly[target[win]] = True
-    # (b) new seeds among weak valid cells, capped per step and in total
-    want = min(int(np.floor(p.seed_rate * ncell)), max(p.max_seeds - seeds_used, 0))
-    if want > 0:
-        cand = np.flatnonzero((valid & weak).ravel() & ~newly)
-        k = min(want, cand.size)
-        if k:
-            st.seed_cells = rng.choice(cand, size=k, replace=False)
-            newly[st.seed_cells] = True
-            st.new_seeds = k
-    # (d) corroded cells eat metal and grow oxide (the previously corroded ones)
-    old = (corroded & ~hole)
-    metal[old] = np.maximum(metal[old] - p.k1, 0.0)
-    oxide[old] = np.minimum(oxide[old] + p.k2, np.maximum(oxide[old], p.k3))
-    new_hole = old & (metal <= 0)
-    hole |= new_hole
-    st.new_holes = int(new_hole.sum())
-    nmask = newly.reshape(shape)
-    corroded |= nmask
-    age[old] += 1
-    age[nmask] = 0
-    st.newly_corroded = int(nmask.sum())
-    return st
+    graph = _graph(tuple(shape))
+    status = np.where(hole, ca.HOLE, np.where(corroded, ca.CORRODED, ca.NORMAL)).astype(np.int8).ravel()
+    st = ca.CorrosionState(status=status, consumable=np.array(metal, float).reshape(-1, 1),
+                           product=np.array(oxide, float).ravel(), age=np.array(age, np.int64).ravel(),
+                           strong=~np.asarray(weak, bool).ravel(), seeds_used=int(seeds_used))
+    h = np.asarray(height, dtype=float).ravel()
+    offset = MOORE[graph.direction]
+    slope = (h[graph.rows] - h[graph.indices]) / (np.hypot(offset[:, 0], offset[:, 1]) * spacing)
+    prm = ca.CorrosionParams(k1=p.k1, k2=p.k2, k3=p.k3, seed_rate=p.seed_rate, max_seeds=p.max_seeds,
+                             max_attacks=MAX_ATTACKS, age_step=float(max(p.age_step, 1)), a0=p.a0, a1=p.a1,
+                             a2=p.a2, b0=p.b0, b1=p.b1, strong_bonus=p.strong_bonus, noise=p.noise,
+                             gaussian=tuple(map(tuple, ca.gaussian_matrix(p.sigma))), seeding="fixed")
+    out = ca.corrosion_step(graph, st, prm, rng, edge_logw=p.downhill * slope,
+                            blocked=np.asarray(covered, bool).ravel())
+    metal[...] = st.consumable[:, 0].reshape(shape)
+    oxide[...] = st.product.reshape(shape)
+    age[...] = st.age.reshape(shape)
+    corroded |= (st.status != ca.NORMAL).reshape(shape)
+    hole |= (st.status == ca.HOLE).reshape(shape)
+    limit = np.minimum(st.valid_neighbours, MAX_ATTACKS)
+    return CorrosionStats(new_seeds=out.new_seeds, attacks=out.attacks,
+                          max_attacks_per_cell=out.max_attacks_per_cell,
+                          max_allowed_violation=int(np.sum(st.attacks > limit)),
+                          newly_corroded=out.newly_corroded, new_holes=out.new_holes, seed_cells=out.seed_cells)

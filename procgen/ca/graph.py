@@ -1,10 +1,10 @@
-"""CA stepping helper shared by every surface rule (thesis 4.3: any 2-D grid CA ports to 3DSCA).
+"""Cellular-automaton stepping on any neighbour graph: mesh surface cells and raster grids alike.
 
-A :class:`CellGraph` wraps the flat CSR neighbour graph (with a Moore direction code per entry)
+A :class:`CellGraph` wraps a flat CSR neighbour graph (with a Moore direction code per entry)
 and offers the vectorised gathers a cell rule needs: neighbour counts and sums, the entries of a
 subset of cells (frontiers), and a 3x3 Moore window per cell.  :func:`grid_graph` builds the
 same structure for a flat rectangular grid, so a rule written once runs - and is tested - on a
-plain image grid and on a mesh surface alike.
+plain image grid (2.5-D surfaces) and on a mesh surface (3DSCA, thesis 4.3) alike.
 """
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from .neighbours import IS_DIAGONAL, MOORE
+#: Moore slots as (di, dj) = (column, row) offsets; slot k and 7 - k are opposite.
+MOORE = np.array([(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)], np.int64)
+IS_DIAGONAL = np.array([True, False, True, False, False, True, False, True])
 
 #: window index (3x3 row-major over (dj, di), centre 4) of each Moore slot
 SLOT_TO_WINDOW = np.array([0, 1, 2, 3, 5, 6, 7, 8])

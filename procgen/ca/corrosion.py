@@ -1,4 +1,8 @@
-"""Corrosion / patina as a strategic attack-defence CA (thesis ch. 4.2 and its Appendix A).
+"""Corrosion / patina as a strategic attack-defence CA (thesis ch. 2.4 and 4.2, Appendix A).
+
+One kernel for both plugins: the 2.5-D surface runs it on the grid graph of its raster (with an
+extra downhill tilt per neighbour entry and covered metal blocked), the mesh-surface plugin on
+its cross-edge cell graph.
 
 States: NORMAL (0), CORRODED (1), HOLE (2, the thesis's NO_MORE_CELL).  Per synchronous step:
 
@@ -21,9 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from procgen.errors import InputError
+from ..errors import InputError
 
-from .stepping import CellGraph, weighted_top_k
+from .graph import MOORE, CellGraph, weighted_top_k
 
 NORMAL, CORRODED, HOLE = 0, 1, 2
 
@@ -56,6 +60,7 @@ class CorrosionParams:
     noise: float = 1.0        # attack += noise * U(0, 1)
     gaussian: tuple[tuple[float, ...], ...] = field(
         default_factory=lambda: tuple(map(tuple, gaussian_matrix(1.0))))
+    seeding: str = "binomial"  # new seeds per step: Binomial(n, rate) or "fixed" floor(rate * n)
 
     def check(self) -> None:
         g = np.asarray(self.gaussian, dtype=float)
@@ -64,10 +69,11 @@ class CorrosionParams:
                              "with some weight off the centre")
         if not 1 <= self.max_attacks <= 7:
             raise InputError(f"corrosion: max_attacks must be in 1..7 (never 8), got {self.max_attacks}")
+        if self.seeding not in ("binomial", "fixed"):
+            raise InputError(f"corrosion: seeding must be 'binomial' or 'fixed', got {self.seeding!r}")
 
     def direction_weights(self) -> np.ndarray:
         """Weight of each Moore slot (di, dj), read from the 3x3 matrix [dj + 1, di + 1]."""
-        from .neighbours import MOORE
         g = np.asarray(self.gaussian, dtype=float)
         return g[MOORE[:, 1] + 1, MOORE[:, 0] + 1]
 
@@ -86,38 +92,67 @@ class CorrosionState:
     valid_neighbours: np.ndarray | None = None  # (n,) n_VC of each cell in the last step
 
 
-def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams,
-                   rng: np.random.Generator) -> int:
-    """One synchronous step; returns how many cells changed status."""
+@dataclass
+class StepStats:
+    """What one step did (for ledgers, reports and the tests' invariants)."""
+
+    changed: int = 0
+    new_seeds: int = 0
+    seed_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    newly_corroded: int = 0
+    new_holes: int = 0
+    attacks: int = 0
+    max_attacks_per_cell: int = 0
+
+
+def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams, rng: np.random.Generator,
+                   *, edge_logw: np.ndarray | None = None, blocked: np.ndarray | None = None) -> StepStats:
+    """One synchronous step of every cell; ``st`` is updated in place.
+
+    ``edge_logw``: extra log-weight per CSR entry added to the Gaussian direction weight (the
+    2.5-D surface tilts attacks downhill). ``blocked``: normal cells that can be neither attacked
+    nor seeded (metal under another layer). A normal cell with no consumable left is blocked too.
+    """
     n = graph.n_cells
+    out = StepStats()
     status0 = st.status.copy()
     corroded = status0 == CORRODED
     normal = status0 == NORMAL
-    # 1. new seeds
+    open_ = normal & (st.consumable.sum(axis=1) > 0)
+    if blocked is not None:
+        open_ &= ~np.asarray(blocked, bool)
+    # 1. new seeds on weak open cells
     new_corroded = np.zeros(n, bool)
     room = prm.max_seeds - st.seeds_used
     if room > 0 and prm.seed_rate > 0:
-        pool = np.nonzero(normal & ~st.strong)[0]
-        k = min(int(rng.binomial(n, prm.seed_rate)), room, len(pool))
+        pool = np.nonzero(open_ & ~st.strong)[0]
+        want = int(rng.binomial(n, prm.seed_rate)) if prm.seeding == "binomial" else int(np.floor(prm.seed_rate * n))
+        k = min(want, room, len(pool))
         if k > 0:
-            new_corroded[rng.choice(pool, k, replace=False)] = True
+            out.seed_cells = rng.choice(pool, k, replace=False)
+            new_corroded[out.seed_cells] = True
             st.seeds_used += k
-    # 2-3. attacks from corroded cells that still touch a normal cell (the front)
+            out.new_seeds = k
+    # 2-3. attacks from corroded cells that still touch an open cell (the front)
     st.attacks = np.zeros(n, np.int64)
     st.valid_neighbours = np.zeros(n, np.int64)
-    front = np.nonzero(corroded & (graph.matrix @ normal.astype(float) > 0))[0]
+    front = np.nonzero(corroded & (graph.matrix @ open_.astype(float) > 0))[0]
     if len(front):
         e = graph.entries_of(front)
         tgt = graph.indices[e]
         rows = np.repeat(np.arange(len(front)), graph.degree[front])     # local row ids
-        valid = normal[tgt]
+        valid = open_[tgt]
         n_vc = np.bincount(rows, weights=valid, minlength=len(front)).astype(np.int64)
         f1 = np.clip(1 + (st.age[front] // prm.age_step).astype(np.int64), 1, prm.max_attacks)
         n_a = np.minimum(f1, n_vc)
-        w = np.where(valid, prm.direction_weights()[graph.direction[e]], 0.0)
-        chosen = weighted_top_k(rows, w, n_a, rng)
-        st.attacks[front] = np.bincount(rows[chosen], minlength=len(front))
+        w = prm.direction_weights()[graph.direction[e]]
+        if edge_logw is not None:
+            w = w * np.exp(np.asarray(edge_logw, dtype=float)[e])
+        chosen = weighted_top_k(rows, np.where(valid, w, 0.0), n_a, rng)
+        per = np.bincount(rows[chosen], minlength=len(front))
+        st.attacks[front] = per
         st.valid_neighbours[front] = n_vc
+        out.attacks, out.max_attacks_per_cell = int(per.sum()), int(per.max(initial=0))
         helpers = np.bincount(rows, weights=corroded[tgt], minlength=len(front))
         a_rows, a_tgt = rows[chosen], tgt[chosen]
         targets, t_inv = np.unique(a_tgt, return_inverse=True)
@@ -131,7 +166,7 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams,
             + prm.noise * rng.random(len(a_rows))
         defence = prm.b0 + prm.b1 * strong_help[t_inv] + prm.strong_bonus * st.strong[a_tgt]
         new_corroded[a_tgt[attack > defence]] = True
-    # 4. corroded cells thin, oxidise and age
+    # 4. corroded cells thin (top consumed layer first), oxidise (never above k3, never shrinking)
     if corroded.any():
         c = st.consumable[corroded]
         remove = np.full(len(c), prm.k1)
@@ -140,14 +175,18 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams,
             c[:, layer] -= take
             remove -= take
         st.consumable[corroded] = c
-        st.product[corroded] = np.minimum(st.product[corroded] + prm.k2, prm.k3)
+        p = st.product[corroded]
+        st.product[corroded] = np.minimum(p + prm.k2, np.maximum(p, prm.k3))
         st.age[corroded] += 1
         gone = corroded & (st.consumable.sum(axis=1) <= 0)
         st.consumable[gone] = 0.0
         st.status[gone] = HOLE
-    new_corroded &= normal
+        out.new_holes = int(np.count_nonzero(gone))
+    new_corroded &= open_
     st.status[new_corroded] = CORRODED
-    return int(np.count_nonzero(st.status != status0))
+    out.newly_corroded = int(np.count_nonzero(new_corroded))
+    out.changed = int(np.count_nonzero(st.status != status0))
+    return out
 
 
 def strong_mask(n: int, fraction: float, rng: np.random.Generator,
