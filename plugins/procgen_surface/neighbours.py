@@ -18,11 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from procgen.domains.trimesh_domain import edge_table
 from procgen.errors import InputError
 
 from .geometry import CellLayout, edge_half_planes
 
-from procgen.ca.graph import IS_DIAGONAL, MOORE  # noqa: F401  (the shared Moore convention)
+from procgen.ca.graph import MOORE  # the shared Moore convention
 
 SIDE_SLOTS = np.array([1, 3, 4, 6])
 DIAGONAL_SLOTS = np.array([0, 2, 5, 7])
@@ -39,24 +40,8 @@ class EdgeTopology:
 
 
 def edge_topology(faces: np.ndarray, valid: np.ndarray | None = None) -> EdgeTopology:
-    """Edge table; faces with ``valid == False`` (degenerate) do not link anything."""
-    m = len(faces)
-    half = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
-    edges, inv = np.unique(np.sort(half, axis=1), axis=0, return_inverse=True)
-    fe = inv.reshape(m, 3)
-    use = np.ones(m, bool) if valid is None else np.asarray(valid, bool)
-    flat = fe[use].ravel()
-    fid = np.repeat(np.arange(m)[use], 3)
-    order = np.argsort(flat, kind="stable")
-    flat, fid = flat[order], fid[order]
-    first = np.ones(len(flat), bool)
-    first[1:] = flat[1:] != flat[:-1]
-    ef = np.full((len(edges), 2), -1, np.int64)
-    ef[flat[first], 0] = fid[first]
-    second = np.zeros(len(flat), bool)
-    second[1:] = (~first[1:]) & first[:-1]
-    ef[flat[second], 1] = fid[second]
-    return EdgeTopology(edges, fe, ef, np.bincount(flat, minlength=len(edges)))
+    """Edge table (the core's); faces with ``valid == False`` (degenerate) do not link anything."""
+    return EdgeTopology(*edge_table(faces, valid))
 
 
 @dataclass(frozen=True)

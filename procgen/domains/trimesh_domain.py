@@ -10,6 +10,33 @@ from ..errors import InputError
 from .base import Domain, frozen
 
 
+def edge_table(faces: np.ndarray, use: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(edges, face_edges, edge_faces, valence) of a triangle list, vectorised.
+
+    ``use`` masks faces (e.g. degenerate ones) that keep their edge ids but link nothing:
+    they count in neither ``edge_faces`` nor ``valence``.
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    m = len(faces)
+    half = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
+    edges, inverse = np.unique(np.sort(half, axis=1), axis=0, return_inverse=True)
+    fe = inverse.reshape(m, 3)
+    keep = np.ones(m, bool) if use is None else np.asarray(use, bool)
+    flat = fe[keep].ravel()
+    fid = np.repeat(np.arange(m)[keep], 3)
+    order = np.argsort(flat, kind="stable")
+    flat, fid = flat[order], fid[order]
+    first = np.ones(len(flat), bool)
+    first[1:] = flat[1:] != flat[:-1]
+    ef = np.full((len(edges), 2), -1, np.int64)
+    ef[flat[first], 0] = fid[first]
+    second = np.zeros(len(flat), bool)
+    second[1:] = (~first[1:]) & first[:-1]
+    ef[flat[second], 1] = fid[second]
+    return edges, fe, ef, np.bincount(flat, minlength=len(edges))
+
+
 class TriMesh(Domain):
     """Vertices (n, 2 or 3) and triangles (m, 3); fields on ``vertex``, ``face`` or ``edge``.
 
@@ -59,11 +86,8 @@ class TriMesh(Domain):
 
     # -- derived topology (cached) ----------------------------------------------------------
     @cached_property
-    def _edge_table(self) -> tuple[np.ndarray, np.ndarray]:
-        half = np.stack([self.faces, np.roll(self.faces, -1, axis=1)], axis=2).reshape(-1, 2)
-        key = np.sort(half, axis=1)
-        edges, inverse = np.unique(key, axis=0, return_inverse=True)
-        return frozen(edges), frozen(inverse.reshape(-1, 3))
+    def _edge_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        return tuple(frozen(x) for x in edge_table(self.faces))  # type: ignore[return-value]
 
     @property
     def edges(self) -> np.ndarray:
@@ -75,26 +99,15 @@ class TriMesh(Domain):
         """(m, 3) edge ids; edge k of face f joins faces[f, k] and faces[f, (k+1) % 3]."""
         return self._edge_table[1]
 
-    @cached_property
+    @property
     def edge_faces(self) -> np.ndarray:
         """(E, 2) the faces on each side of an edge, -1 on a boundary; non-manifold extras dropped."""
-        fe = self.face_edges.ravel()
-        fid = np.repeat(np.arange(self.n_faces), 3)
-        order = np.argsort(fe, kind="stable")
-        fe, fid = fe[order], fid[order]
-        first = np.ones(len(fe), bool)
-        first[1:] = fe[1:] != fe[:-1]
-        out = np.full((len(self.edges), 2), -1, np.int64)
-        out[fe[first], 0] = fid[first]
-        second = np.zeros(len(fe), bool)
-        second[1:] = (~first[1:]) & first[:-1]
-        out[fe[second], 1] = fid[second]
-        return frozen(out)
+        return self._edge_table[2]
 
-    @cached_property
+    @property
     def edge_valence(self) -> np.ndarray:
         """Number of faces using each edge (1 boundary, 2 manifold, >2 non-manifold)."""
-        return frozen(np.bincount(self.face_edges.ravel(), minlength=len(self.edges)))
+        return self._edge_table[3]
 
     @property
     def is_boundary_edge(self) -> np.ndarray:
