@@ -279,3 +279,17 @@ def test_mesh_fields_carry_onto_cells_and_drive_corrosion(host):
     from procgen import RecipeError
     with pytest.raises(RecipeError, match="strong_field"):
         check_recipe({"steps": bad}, host)
+
+
+def test_absurd_cell_counts_are_refused_at_check_time(host):
+    import pytest
+
+    from procgen import RecipeError
+    from procgen.recipes import check_recipe
+
+    steps = [{"rule": "mesh.primitive"}, {"rule": "surface.cells", "params": {"target_cells": 2_000_000_000}}]
+    with pytest.raises(RecipeError, match="exceeds max_cells"):
+        check_recipe({"steps": steps}, host)
+    steps[1]["params"]["max_cells"] = 3_000_000_000
+    with pytest.raises(RecipeError, match="GiB, more than"):
+        check_recipe({"steps": steps}, host)

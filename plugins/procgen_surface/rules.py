@@ -151,6 +151,13 @@ class BuildCells(RuleBase):
     def validate(self) -> None:
         if sum(x is not None for x in (self.cell_size, self.target_cells, self.k)) != 1:
             raise ValueError("give exactly one of cell_size, target_cells, k")
+        if self.target_cells is not None and self.target_cells > self.max_cells:
+            raise ValueError(f"target_cells = {self.target_cells:,} exceeds max_cells = {self.max_cells:,} "
+                             f"(about {self.memory_estimate() / 2**30:.1f} GiB)")
+
+    def memory_estimate(self) -> int:
+        # measured order of magnitude: topology, 8-entry CSR graph and build temporaries per cell
+        return 600 * int(self.target_cells or 0)
 
     def step(self, state: State) -> bool:
         m = state.get(self.mesh, TriMesh)
