@@ -14,7 +14,6 @@ import time
 
 import numpy as np
 
-from procgen.materials import parse_materials
 from procgen_water import particles as P
 from procgen_water.layers import base_surface, layer_thickness, parse_layers
 from procgen_water.reference import step_loop

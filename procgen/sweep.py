@@ -11,7 +11,6 @@ import io
 import itertools
 import re
 import sys
-import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -133,7 +132,3 @@ def summary_csv(runs: list[SweepRun], results: list[JobResult]) -> str:
         w.writerow([r.key, r.seed, *[r.values.get(p, "") for p in params], res.status,
                     f"{res.seconds:.3f}", *[res.reports.get(k, "") for k in reports], res.error])
     return buf.getvalue()
-
-
-def elapsed(t0: float) -> float:
-    return time.perf_counter() - t0

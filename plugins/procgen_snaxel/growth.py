@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .config import GrowthConfig
-from .snake import CURVE, DX, DY, ELEN, OX, OY, POS, T, U, UNVISITED, V, Snake
+from .snake import CURVE, ELEN, POS, T, U, UNVISITED, V, Snake
 from .speeds import base_speed, blend, circular_profile, effect_coefficient, linear_profile
 from .topology import Topology
 

@@ -48,7 +48,6 @@ def parse_path_d(d: str) -> list[np.ndarray]:
     start = np.zeros(2)
     last_ctrl = None
     i, cmd = 0, None
-    nums: list[float] = []
 
     def take(k: int) -> list[float]:
         nonlocal i
