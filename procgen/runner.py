@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
+import numpy as np
+
 from .errors import InputError, PluginError, ProcgenError
 from .exchange import write
 from .recipes import OutputSpec, Recipe
@@ -72,7 +74,8 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
         save_state: bool = False) -> RunResult:
     """Run every step of a checked recipe, then write its outputs and run.json into ``out_dir``.
 
-    Nothing is written when a step fails. ``progress=None`` shows bars only on a terminal.
+    Nothing is written when a step or an exporter fails; without ``out_dir`` nothing is exported
+    at all (frames included). ``progress=None`` shows bars only on a terminal.
     """
     seed = recipe.seed if seed is None else int(seed)
     show = sys.stderr.isatty() if progress is None else progress
@@ -96,7 +99,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
                     state.iteration = it
                     t0 = time.perf_counter()
                     changed = rule.step(state)
-                    if not isinstance(changed, (bool,)) and type(changed).__name__ != "bool_":
+                    if not isinstance(changed, (bool, np.bool_)):
                         raise PluginError(f"{step.where}: step() must return a bool, got {type(changed).__name__}")
                     changed = bool(changed)
                     done_iterations = it + 1
@@ -106,7 +109,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
                     if on_step is not None:
                         on_step(state, rec)
                     bar.update(1)
-                    if step.frames is not None and (it + 1) % step.frames.every == 0:
+                    if out_dir is not None and step.frames is not None and (it + 1) % step.frames.every == 0:
                         rule.publish(state)
                         spec = OutputSpec(step.frames.domain, step.frames.format,
                                           _frame_name(step, it + 1, host), step.frames.options)
@@ -122,7 +125,8 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
         except ProcgenError as exc:
             raise type(exc)(f"{step.where}: {exc}") if not str(exc).startswith(step.where) else exc
         step_info.append({"index": step.index, "rule": rule.name, "label": step.label,
-                          "params": rule.param_values(), "iterations": done_iterations, "changed_iterations": changed_count, "stopped": stopped,
+                          "params": rule.param_values(), "iterations": done_iterations,
+                          "changed_iterations": changed_count, "stopped": stopped,
                           "seconds": round(time.perf_counter() - t_start, 4)})
     if out_dir is None:
         return result
@@ -143,8 +147,6 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
 
 
 def _json_default(value: Any) -> Any:
-    import numpy as np
-
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
