@@ -5,6 +5,7 @@ a wrong type, NaN or an out-of-range value with a precise message before anythin
 """
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
 import difflib
 import math
@@ -113,7 +114,7 @@ def coerce(value: Any, tp: Any, where: str) -> Any:
         if not isinstance(value, str):
             raise ValueError(f"{where}: expected a string, got {_show(value)}")
         return value
-    if origin in (list, tuple):
+    if origin in (list, tuple, collections.abc.Sequence):
         if not isinstance(value, (list, tuple)):
             raise ValueError(f"{where}: expected a list, got {_show(value)}")
         args = typing.get_args(tp)

@@ -9,13 +9,14 @@ import copy
 import inspect
 import math
 import tomllib
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any
 
 from .domains import DOMAIN_KINDS, is_kind
 from .errors import PluginError, ProcgenError, RecipeError
-from .params import did_you_mean
+from .params import coerce, did_you_mean
 from .rules import RuleBase
 
 if TYPE_CHECKING:
@@ -207,6 +208,16 @@ def _check_exporter_options(fmt: str, options: dict[str, Any], host: "PluginHost
         if k in ("stem", "provenance") or (not accepts_any and k not in allowed):
             raise RecipeError(f"{where}: format {fmt!r} has no option {k!r}{did_you_mean(k, allowed)}"
                               f"; options: {', '.join(allowed) or 'none'}")
+    try:
+        hints = typing.get_type_hints(exporter.func)
+    except (NameError, TypeError):   # unresolvable annotations: leave the types to the exporter
+        hints = {}
+    for k, v in options.items():
+        if k in hints:
+            try:
+                coerce(v, hints[k], f"option {k!r}")
+            except ValueError as exc:
+                raise RecipeError(f"{where}: format {fmt!r}: {exc}") from None
 
 
 class _Flow:

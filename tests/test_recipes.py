@@ -197,3 +197,12 @@ def test_layer_names_are_checked_against_earlier_steps(host):
              {"rule": "surface.layers", "params": {"layers": ["copper", "patina"]}}]
     _err(host, {"steps": cells + [{"rule": "surface.corrosion", "params": {"product": "patena"}}]},
          r"steps\[3\] \(surface.corrosion\).*did you mean 'patina'")
+
+
+def test_exporter_option_types_are_checked(host):
+    d = _with(["outputs"], [{"domain": "smooth", "format": "svg", "options": {"width": "wide"}}])
+    _err(host, d, "format 'svg': option 'width': expected an integer")
+    d = _with(["outputs"], [{"domain": "smooth", "format": "svg", "options": {"gradient": "#fff"}}])
+    _err(host, d, "option 'gradient'")
+    d = _with(["outputs"], [{"domain": "smooth", "format": "svg", "options": {"width": 640, "fill": None}}])
+    check_recipe(d, host, "r.toml")
