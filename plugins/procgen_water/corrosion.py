@@ -21,7 +21,7 @@ then thresholded (the 'binary' function) at the quantile giving exactly the weak
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -100,17 +100,6 @@ class CorrosionParams:
     k3: float = 0.2
 
 
-@dataclass
-class CorrosionStats:
-    new_seeds: int = 0
-    attacks: int = 0
-    max_attacks_per_cell: int = 0
-    max_allowed_violation: int = 0
-    newly_corroded: int = 0
-    new_holes: int = 0
-    seed_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-
-
 @lru_cache(maxsize=8)
 def _graph(shape: tuple[int, int]) -> CellGraph:
     """The raster's 8-neighbour cell graph (cached: the grid never changes shape)."""
@@ -120,7 +109,7 @@ def _graph(shape: tuple[int, int]) -> CellGraph:
 def corrosion_step(*, corroded: np.ndarray, age: np.ndarray, hole: np.ndarray, weak: np.ndarray,
                    metal: np.ndarray, oxide: np.ndarray, covered: np.ndarray, height: np.ndarray,
                    spacing: float, p: CorrosionParams, rng: np.random.Generator,
-                   seeds_used: int) -> CorrosionStats:
+                   seeds_used: int) -> ca.StepStats:
     """One synchronous step on the raster: the shared kernel (procgen.ca.corrosion) on the grid's
     graph, attacks tilted downhill; every (ny, nx) array is updated in place."""
     shape = corroded.shape
@@ -143,8 +132,4 @@ def corrosion_step(*, corroded: np.ndarray, age: np.ndarray, hole: np.ndarray, w
     age[...] = st.age.reshape(shape)
     corroded |= (st.status != ca.NORMAL).reshape(shape)
     hole |= (st.status == ca.HOLE).reshape(shape)
-    limit = np.minimum(st.valid_neighbours, MAX_ATTACKS)
-    return CorrosionStats(new_seeds=out.new_seeds, attacks=out.attacks,
-                          max_attacks_per_cell=out.max_attacks_per_cell,
-                          max_allowed_violation=int(np.sum(st.attacks > limit)),
-                          newly_corroded=out.newly_corroded, new_holes=out.new_holes, seed_cells=out.seed_cells)
+    return out

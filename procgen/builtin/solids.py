@@ -125,6 +125,13 @@ def _perimeter(ring: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(np.vstack([r, r[:1]]), axis=0), axis=1).sum())
 
 
+def outward(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Faces wound so a closed surface has positive signed volume (normals point out)."""
+    f = faces
+    vol = np.sum(np.einsum("ij,ij->i", verts[f[:, 0]], np.cross(verts[f[:, 1]], verts[f[:, 2]])))
+    return f[:, ::-1].copy() if vol < 0 else f
+
+
 def revolve(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.ndarray]:
     """Closed surface of revolution about z of a (k, 2) profile (r, z) that starts and ends on
     the axis (r = 0).  Returns (vertices, faces) with outward-facing triangles."""
@@ -152,9 +159,7 @@ def revolve(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.ndarray]
     last = (k - 1) * sections
     faces.append(np.column_stack([np.full(sections, top), last + s, last + s1]))
     f = np.vstack(faces).astype(np.int64)
-    vol = np.sum(np.einsum("ij,ij->i", verts[f[:, 0]], np.cross(verts[f[:, 1]], verts[f[:, 2]])))
-    if vol < 0:
-        f = f[:, ::-1].copy()
+    f = outward(verts, f)
     return verts, f
 
 
@@ -176,9 +181,7 @@ def revolve_loop(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.nda
     a1 = (((r + 1) % k) * sections + s).ravel()
     b1 = (((r + 1) % k) * sections + (s + 1) % sections).ravel()
     f = np.vstack([np.column_stack([a0, b0, b1]), np.column_stack([a0, b1, a1])]).astype(np.int64)
-    vol = np.sum(np.einsum("ij,ij->i", verts[f[:, 0]], np.cross(verts[f[:, 1]], verts[f[:, 2]])))
-    if vol < 0:
-        f = f[:, ::-1].copy()
+    f = outward(verts, f)
     return verts, f
 
 

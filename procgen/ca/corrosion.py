@@ -103,6 +103,7 @@ class StepStats:
     new_holes: int = 0
     attacks: int = 0
     max_attacks_per_cell: int = 0
+    max_allowed_violation: int = 0   # cells that attacked more than min(n_VC, max_attacks): must be 0
 
 
 def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams, rng: np.random.Generator,
@@ -153,6 +154,7 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams, r
         st.attacks[front] = per
         st.valid_neighbours[front] = n_vc
         out.attacks, out.max_attacks_per_cell = int(per.sum()), int(per.max(initial=0))
+        out.max_allowed_violation = int(np.sum(per > np.minimum(n_vc, prm.max_attacks)))
         helpers = np.bincount(rows, weights=corroded[tgt], minlength=len(front))
         a_rows, a_tgt = rows[chosen], tgt[chosen]
         targets, t_inv = np.unique(a_tgt, return_inverse=True)
