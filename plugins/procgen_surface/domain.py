@@ -96,6 +96,10 @@ class SurfaceCells(Domain):
     def graph(self) -> CellGraph:
         return CellGraph(self.indptr, self.indices, self.direction, self.cross)
 
+    def cell_graph(self, neighbourhood: str = "moore") -> CellGraph:
+        """The cross-edge cell graph (the cell-domain protocol of :mod:`procgen.ca.cells`)."""
+        return self.graph.neighbourhood(neighbourhood)
+
     @cached_property
     def layout(self) -> CellLayout:
         frames = FaceFrames(self.origin, self.ex, self.ey, self.corners2d, self.valid)

@@ -86,6 +86,17 @@ class CellGraph:
         tab[self.rows, self.direction] = self.indices
         return tab
 
+    def restrict(self, keep: np.ndarray) -> "CellGraph":
+        """The same cells with only the CSR entries where ``keep`` is True."""
+        keep = np.asarray(keep, bool)
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(self.rows[keep], minlength=self.n_cells))])
+        cross = None if self.cross is None else self.cross[keep]
+        return CellGraph(indptr.astype(np.int64), self.indices[keep], self.direction[keep], cross)
+
+    def neighbourhood(self, name: str) -> "CellGraph":
+        """``moore`` (this graph) or ``von_neumann`` (side slots only: no diagonal entries)."""
+        return self if name == "moore" else self.restrict(~self.is_diagonal)
+
     def window(self, values: np.ndarray, fill: float | int = 0) -> np.ndarray:
         """(n, 9, ...) 3x3 Moore window of ``values`` per cell (centre at 4; ``fill`` if empty).
 

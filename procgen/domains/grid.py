@@ -2,12 +2,15 @@
 from __future__ import annotations
 
 from functools import cached_property
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from ..errors import InputError
 from .base import Domain
+
+if TYPE_CHECKING:
+    from ..ca.graph import CellGraph
 
 
 class Grid(Domain):
@@ -35,6 +38,7 @@ class Grid(Domain):
         self.spacing = float(spacing)
         self.origin = (float(origin[0]), float(origin[1]))
         self.layers = tuple(str(n) for n in layers)
+        self._graphs: dict[str, CellGraph] = {}
 
     def location_shape(self, at: str) -> tuple[int, ...]:
         return self.shape
@@ -52,6 +56,13 @@ class Grid(Domain):
     def y(self) -> np.ndarray:
         """Cell-centre y coordinates (ny,)."""
         return self.origin[1] + (np.arange(self.shape[0]) + 0.5) * self.spacing
+
+    def cell_graph(self, neighbourhood: str = "moore") -> "CellGraph":
+        """The raster's cell graph (cell id = row * nx + column), 8 or 4 neighbours, no wrap."""
+        from ..ca.graph import grid_graph
+        if neighbourhood not in self._graphs:
+            self._graphs[neighbourhood] = grid_graph(*self.shape).neighbourhood(neighbourhood)
+        return self._graphs[neighbourhood]
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
