@@ -1,7 +1,11 @@
-"""Paths the tests share (the repository root and the shared real meshes beside it)."""
+"""Paths the tests share: the repository root and the meshes shipped inside it.
+
+Tests never read ../shared: the real meshes they need (spot, the teapot, the decimated bunny)
+ship in procgen/data/meshes, and the other cases are built procedurally in ``_meshes.py``.
+"""
 from __future__ import annotations
 
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED_MESHES = ROOT.parent / "shared" / "meshes"
+MESHES = ROOT / "procgen" / "data" / "meshes"

@@ -13,7 +13,8 @@ from procgen.noise import fbm_spectral, midpoint_displacement
 from procgen.recipes import check_recipe
 from procgen.runner import run
 
-from _paths import SHARED_MESHES
+from _meshes import quad_obj
+from _paths import MESHES
 
 
 def _run(host, steps, seed=1):
@@ -40,18 +41,22 @@ def test_delaunay_is_ccw_and_empty_circle(host):
     assert m.n_vertices - len(m.edges) + m.n_faces == 1
 
 
-def test_load_quads_are_triangulated(host):
-    st = _run(host, [{"rule": "mesh.load", "params": {"path": str(SHARED_MESHES / "suzanne.obj")}}])
-    raw = load_mesh_file(SHARED_MESHES / "suzanne.obj")
-    assert raw.n_faces == 468 * 2 + 32          # every quad became two triangles
+def test_load_quads_are_triangulated(host, tmp_path):
+    path, quads, tris = quad_obj(tmp_path / "quads.obj")
+    st = _run(host, [{"rule": "mesh.load", "params": {"path": str(path)}}])
+    raw = load_mesh_file(path)
+    assert raw.n_faces == quads * 2 + tris      # every quad became two triangles
     m = st.get("mesh")                          # cleaned: welded, no degenerate/duplicate faces
     assert m.n_faces <= raw.n_faces and (m.face_areas > 0).all()
     assert len(np.unique(np.sort(m.faces, axis=1), axis=0)) == m.n_faces
     assert np.isclose(m.to_trimesh().area, raw.to_trimesh().area, rtol=1e-3)
+    # the seam and pole copies are welded: the sphere is closed, genus 0
+    assert raw.is_boundary_edge.any() and not m.is_boundary_edge.any()
+    assert m.n_vertices - len(m.edges) + m.n_faces == 2
 
 
 def test_load_open_mesh_keeps_boundary(host):
-    m = clean_mesh(load_mesh_file(SHARED_MESHES / "teapot.obj"))
+    m = clean_mesh(load_mesh_file(MESHES / "teapot.obj"))
     assert m.is_boundary_edge.any()
     assert len(boundary_loops(m)) >= 1
 

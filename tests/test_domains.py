@@ -7,7 +7,7 @@ import trimesh
 
 from procgen import Grid, InputError, PointSet, Polylines, TriMesh
 
-from _paths import SHARED_MESHES
+from _paths import MESHES
 
 
 def test_field_size_is_checked():
@@ -44,7 +44,7 @@ def test_broken_mesh_is_refused(bad):
 
 
 def test_derived_topology_matches_trimesh():
-    tm = trimesh.load(SHARED_MESHES / "spot.obj", force="mesh", process=True)
+    tm = trimesh.load(MESHES / "spot.obj", force="mesh", process=True)
     tm.merge_vertices(merge_tex=True, merge_norm=True)  # weld UV seams: spot is closed
     m = TriMesh.from_trimesh(tm)
     assert len(m.edges) == len(tm.edges_unique)

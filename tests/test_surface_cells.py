@@ -16,7 +16,8 @@ from procgen_surface.geometry import build_cells, choose_cell_size, face_frames
 from procgen_surface.neighbours import (MOORE, analytic_mean_edge_error, build_neighbours,
                                         edge_topology, orientation_errors)
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "meshes"
+from _meshes import quad_obj, sharp_block
+from _paths import MESHES
 
 
 def icosphere(level: int = 2) -> tuple[np.ndarray, np.ndarray]:
@@ -24,10 +25,10 @@ def icosphere(level: int = 2) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(m.vertices), np.asarray(m.faces)
 
 
-def load_shared(name: str) -> tuple[np.ndarray, np.ndarray]:
-    """A real mesh as ``mesh.load`` gives it (duplicate vertices at UV seams merged)."""
+def load_mesh(path: Path | str) -> tuple[np.ndarray, np.ndarray]:
+    """A mesh file (a shipped name or a path) as ``mesh.load`` gives it (UV seams welded)."""
     from procgen.builtin.meshes import clean_mesh, load_mesh_file
-    m = clean_mesh(load_mesh_file(SHARED / name))
+    m = clean_mesh(load_mesh_file(MESHES / path))
     return np.asarray(m.vertices), np.asarray(m.faces)
 
 
@@ -134,13 +135,7 @@ def test_thesis_pairs_touch_every_shared_edge_and_stay_within_a_cell():
 
 @pytest.mark.parametrize("name", ["teapot.obj", "bunny-4k.obj"])
 def test_open_mesh_boundary_cells_miss_slots(name):
-    if name == "bunny-4k.obj":         # shipped decimated scan (holes in the base)
-        from procgen.builtin.meshes import clean_mesh, load_mesh_file
-        m = clean_mesh(load_mesh_file(Path(__file__).resolve().parents[1] / "procgen" / "data"
-                                      / "meshes" / name))
-        v, f = np.asarray(m.vertices), np.asarray(m.faces)
-    else:
-        v, f = load_shared(name)
+    v, f = load_mesh(name)             # the teapot is open; the decimated scan has holes in the base
     sc = SurfaceCells.from_mesh(v, f, target_cells=40000)
     deg = np.diff(sc.indptr)
     topo = edge_topology(sc.faces, sc.valid)
@@ -152,8 +147,8 @@ def test_open_mesh_boundary_cells_miss_slots(name):
     np.testing.assert_allclose(per_face[ok], face_areas(v, f)[ok], rtol=1e-9)
 
 
-def test_quads_and_thin_triangles():
-    v, f = load_shared("suzanne.obj")      # mostly quads, triangulated by trimesh
+def test_quads_and_thin_triangles(tmp_path):
+    v, f = load_mesh(quad_obj(tmp_path / "quads.obj")[0])   # quads triangulated by trimesh, thin pole fans
     sc = SurfaceCells.from_mesh(v, f, target_cells=20000, frame="longest")
     np.testing.assert_allclose(np.bincount(sc.face, sc.area, minlength=len(f))[sc.valid],
                                face_areas(v, f)[sc.valid], rtol=1e-9)
@@ -162,6 +157,27 @@ def test_quads_and_thin_triangles():
     f2 = np.array([[0, 1, 2], [1, 0, 3]])
     lay = build_cells(v2, f2, 8e-3)
     np.testing.assert_allclose(np.bincount(lay.face, lay.area), face_areas(v2, f2), rtol=1e-9)
+
+
+def test_sharp_feature_edges_keep_flat_facets_flat():
+    """On a CAD-like part (chamfered cube) cells on a flat facet carry the facet normal; cells
+    of triangles touching a feature edge tilt towards the neighbour facet but stay on their side."""
+    from procgen.domains import TriMesh
+    v, f = sharp_block()
+    tm = TriMesh(v, f)
+    assert not tm.is_boundary_edge.any()
+    ef = tm.edge_faces                                  # closed: two faces per edge
+    bent = np.einsum("ij,ij->i", tm.face_normals[ef[:, 0]], tm.face_normals[ef[:, 1]]) < 1 - 1e-9
+    feature = np.zeros(len(v), bool)
+    feature[tm.edges[bent].ravel()] = True
+    sc = SurfaceCells.from_mesh(v, f, target_cells=8000)
+    fn = tm.face_normals[sc.face]
+    on_edge = feature[f[sc.face]].any(axis=1)
+    np.testing.assert_allclose(sc.normal[~on_edge], fn[~on_edge], atol=1e-12)
+    cos = np.sum(sc.normal * fn, axis=1)
+    assert np.all(cos > 0.2) and cos[on_edge].min() < 0.95
+    np.testing.assert_allclose(np.linalg.norm(sc.normal, axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.bincount(sc.face, sc.area, minlength=len(f)), tm.face_areas, rtol=1e-9)
 
 
 def test_orientation_error_formula_and_statistic():

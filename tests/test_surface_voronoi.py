@@ -155,8 +155,8 @@ def test_sampling_helpers():
 @pytest.mark.slow
 def test_surface_voronoi_agrees_with_geodesic_voronoi_from_potpourri3d():
     import potpourri3d as pp3d
-    from test_surface_cells import load_shared
-    v, f = load_shared("spot.obj")
+    from test_surface_cells import load_mesh
+    v, f = load_mesh("spot.obj")
     # ~10 cells per triangle: the thesis's cell-size rule asks for cells smaller than triangles;
     # at ~5 per triangle nearly every cell is PART-IN and agreement drops to ~88 %
     sc = SurfaceCells.from_mesh(v, f, target_cells=60000)
