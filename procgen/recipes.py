@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import inspect
 import math
+import re
 import tomllib
 import typing
 from dataclasses import dataclass, field
@@ -24,7 +25,8 @@ if TYPE_CHECKING:
 
 TOP_KEYS = ("recipe", "steps", "outputs")
 META_KEYS = ("name", "description", "seed", "figure", "caption", "table_row", "notes")
-STEP_KEYS = ("rule", "params", "iterations", "until", "max_iterations", "frames", "label")
+STEP_KEYS = ("id", "rule", "params", "iterations", "until", "max_iterations", "frames", "label")
+STEP_ID = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*")   # never all digits: ``steps.3`` stays an index
 OUTPUT_KEYS = ("domain", "format", "file", "options")
 FRAME_KEYS = ("every", "domain", "format", "options")
 DEFAULT_MAX_ITERATIONS = 100_000
@@ -55,6 +57,7 @@ class Step:
     until_stable: bool
     frames: FrameSpec | None = None
     label: str = ""
+    id: str = ""
 
     @property
     def where(self) -> str:
@@ -135,7 +138,29 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     return parts, value
 
 
+def _list_position(items: list[Any], part: str, here: str, source: str) -> int:
+    """Where ``part`` points in a list: a position (``steps.2``) or a table's id (``steps.erode``).
+
+    Ids survive inserting a step; a position silently moves to whatever step is there now.
+    """
+    if part.isdigit():
+        if int(part) >= len(items):
+            raise RecipeError(f"{source}: --set {here}: no such index (there are {len(items)})")
+        return int(part)
+    ids = [x.get("id") if isinstance(x, dict) else None for x in items]
+    hits = [k for k, x in enumerate(ids) if x == part]
+    if not hits:
+        known = [x for x in ids if isinstance(x, str)]
+        raise RecipeError(f"{source}: --set {here}: no step with id {part!r}{did_you_mean(part, known)}"
+                          f" (ids: {', '.join(known) or 'none'}; or give a position 0..{len(items) - 1})")
+    if len(hits) > 1:
+        raise RecipeError(f"{source}: --set {here}: id {part!r} is used by {len(hits)} steps "
+                          f"({', '.join(map(str, hits))}); ids must be unique")
+    return hits[0]
+
+
 def apply_overrides(data: dict[str, Any], overrides: list[str], source: str) -> dict[str, Any]:
+    """Apply ``KEY=VALUE`` overrides; a list element is addressed by position or by its ``id``."""
     out = copy.deepcopy(data)
     for text in overrides:
         parts, value = parse_override(text)
@@ -144,12 +169,11 @@ def apply_overrides(data: dict[str, Any], overrides: list[str], source: str) -> 
             last = i == len(parts) - 1
             here = ".".join(parts[: i + 1])
             if isinstance(node, list):
-                if not part.isdigit() or int(part) >= len(node):
-                    raise RecipeError(f"{source}: --set {here}: no such index (there are {len(node)})")
+                k = _list_position(node, part, here, source)
                 if last:
-                    node[int(part)] = value
+                    node[k] = value
                 else:
-                    node = node[int(part)]
+                    node = node[k]
             elif isinstance(node, dict):
                 if last:
                     node[part] = value
@@ -265,10 +289,19 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
         raise RecipeError(f"{source}: needs at least one [[steps]] table")
     flow = _Flow()
     steps: list[Step] = []
+    ids: dict[str, int] = {}
     for i, raw in enumerate(raw_steps):
         where = f"{source}: steps[{i}]"
         raw = _require_table(raw, where)
         _check_keys(raw, STEP_KEYS, where)
+        step_id = raw.get("id", "")
+        if "id" in raw:
+            if not isinstance(step_id, str) or not STEP_ID.fullmatch(step_id):
+                raise RecipeError(f"{where}: id must be a name (letters, digits, '_' or '-', not "
+                                  f"starting with a digit), got {step_id!r}")
+            if step_id in ids:
+                raise RecipeError(f"{where}: id {step_id!r} is already used by steps[{ids[step_id]}]")
+            ids[step_id] = i
         rule_name = raw.get("rule")
         if not isinstance(rule_name, str):
             raise RecipeError(f"{where}: missing 'rule' (a rule name such as 'points.poisson_disk')")
@@ -333,7 +366,7 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
         label = raw.get("label", "")
         if not isinstance(label, str):
             raise RecipeError(f"{where}: label must be a string")
-        steps.append(Step(i, rule, params, iterations, until == "stable", frames, label))
+        steps.append(Step(i, rule, params, iterations, until == "stable", frames, label, step_id))
     need = sum(int(s.rule.memory_estimate()) for s in steps)
     limit = memory_limit_bytes()
     if need > limit:
