@@ -160,10 +160,11 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"{name:<{width}}  {cls.summary()}")
         return 0
     if args.command == "recipes":
-        from .recipes import list_recipes
+        from .recipes import list_recipes, rules_missing
 
         for name, path in list_recipes(host).items():
-            print(name)
+            missing = rules_missing(path, host)      # a chain through a disabled family
+            print(f"{name}  (needs {', '.join(missing)}: plugin disabled or not installed)" if missing else name)
         return 0
     if args.command == "plugins":
         for s in host.statuses:

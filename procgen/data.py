@@ -1,28 +1,35 @@
-"""Where shipped data lives: recipes (rules/), gallery lists (gallery/) and meshes.
+"""Where shipped data lives: each built-in plugin's recipes and gallery lists, and the meshes.
 
-In a wheel they are copied under ``procgen/_data``; in a source checkout or an editable install
-they are the top-level folders beside the package. Both are looked up, in that order.
+Built-in plugins ship recipes exactly as an outside plugin does, through the
+``procgen_recipe_dirs`` and ``procgen_gallery_lists`` hooks. In a wheel, pyproject's
+force-include copies ``rules/<family>`` into ``<plugin package>/recipes/<family>`` and
+``gallery/<list>.toml`` into ``<plugin package>/gallery/``; in a source checkout or an editable
+install the families stay in the top-level ``rules/`` and ``gallery/`` folders, of which each
+plugin names only its own.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
 _PKG = Path(__file__).resolve().parent
+SOURCE_ROOT = _PKG.parent      # a checkout: rules/ and gallery/ beside the procgen package
 
 
-def _first(*candidates: Path) -> Path:
-    for c in candidates:
-        if c.exists():
-            return c
-    return candidates[0]
+def plugin_recipe_dirs(package_dir: Path, *families: str) -> list[Path | tuple[Path, str]]:
+    """A built-in plugin's ``procgen_recipe_dirs``: its package's ``recipes`` folder when
+    installed from a wheel, else ``(rules/, family)`` pairs naming its families in the checkout."""
+    shipped = Path(package_dir) / "recipes"
+    if shipped.is_dir():
+        return [shipped]
+    return [(SOURCE_ROOT / "rules", family) for family in families]
 
 
-def builtin_rules_dir() -> Path:
-    return _first(_PKG / "_data" / "rules", _PKG.parent / "rules")
-
-
-def gallery_dir() -> Path:
-    return _first(_PKG / "_data" / "gallery", _PKG.parent / "gallery")
+def plugin_gallery_lists(package_dir: Path, *names: str) -> list[Path]:
+    """A built-in plugin's ``procgen_gallery_lists``: ``<package>/gallery/<name>`` from a wheel,
+    else ``gallery/<name>`` in the checkout."""
+    shipped = Path(package_dir) / "gallery"
+    base = shipped if shipped.is_dir() else SOURCE_ROOT / "gallery"
+    return [base / name for name in names]
 
 
 def meshes_dir() -> Path:

@@ -1,4 +1,4 @@
-"""The gallery: every entry of gallery/gallery.toml rendered in parallel, resumably, into index.html.
+"""The gallery: every plugin's gallery entries rendered in parallel, resumably, into index.html.
 
 Each entry+seed is a job (procgen.jobs): rendered into a temporary folder renamed into place
 when complete, with a stamp holding a provenance hash (recipe after overrides, seed, package
@@ -17,11 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .data import gallery_dir
 from .errors import RecipeError
 from .exchange import write
 from .jobs import JobResult, clean_stale_temps, render_job
-from .recipes import parse_toml
+from .recipes import list_recipes, parse_toml, rules_missing
 
 if TYPE_CHECKING:
     from .plugins import PluginHost
@@ -84,17 +83,21 @@ def _entry_from(raw: Any, where: str, index: int) -> Entry:
 
 
 def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path | None = None) -> list[Entry]:
-    """Entries of gallery.toml and the files it includes, filtered by ``only`` globs."""
-    main = path or gallery_dir() / "gallery.toml"
-    data = parse_toml(main.read_text(encoding="utf-8"), str(main))
-    files = [(main, data)]
-    for inc in data.get("gallery", {}).get("include", []):
-        p = main.parent / inc
-        if p.is_file():
-            files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
-    if path is None:
-        for p in host.gallery_lists():      # entries that installed plugins contribute
-            files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
+    """Entries of every loaded plugin's gallery lists (or of the file ``path``), filtered by ``only``.
+
+    A list may include others (``[gallery] include = [...]``, relative to it). An entry whose
+    recipe needs a rule that no loaded plugin registers (its family is disabled or not installed)
+    is left out with a one-line note on stderr rather than failing the gallery.
+    """
+    files = []
+    for main in [path] if path else host.gallery_lists():
+        data = parse_toml(main.read_text(encoding="utf-8"), str(main))
+        files.append((main, data))
+        for inc in data.get("gallery", {}).get("include", []):
+            p = main.parent / inc
+            if p.is_file():
+                files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
+    recipes = list_recipes(host)
     entries: list[Entry] = []
     seen: set[str] = set()
     for p, d in files:
@@ -103,6 +106,11 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
             if e.slug in seen:
                 raise RecipeError(f"{p.name}: entry[{i}]: id {e.slug!r} is used twice; give one an 'id'")
             seen.add(e.slug)
+            missing = rules_missing(recipes[e.recipe], host) if e.recipe in recipes else []
+            if missing:
+                print(f"gallery: left out {e.slug}: recipe {e.recipe} needs {', '.join(missing)} "
+                      "(its plugin is disabled or not installed)", file=sys.stderr)
+                continue
             entries.append(e)
     if only:
         entries = [e for e in entries if any(fnmatch.fnmatch(e.recipe, pat) or fnmatch.fnmatch(e.slug, pat)

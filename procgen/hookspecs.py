@@ -59,10 +59,13 @@ def procgen_register_exporters() -> "list[Exporter]":
 
 
 @hookspec
-def procgen_recipe_dirs() -> "list[Path]":
+def procgen_recipe_dirs() -> "list[Path | tuple[Path, str]]":
     """Return directories that hold this plugin's recipes (``*.toml``), e.g. shipped package data.
 
-    A recipe ``<dir>/lichen/rock.toml`` is then runnable as ``procgen run lichen/rock``.
+    A recipe ``<dir>/lichen/rock.toml`` is then runnable as ``procgen run lichen/rock``. A pair
+    ``(dir, "lichen")`` ships only the family folder ``<dir>/lichen`` (names stay ``lichen/...``):
+    the built-in plugins use it for their share of the checkout's ``rules/`` folder. A disabled
+    plugin's recipes (``PROCGEN_DISABLE_PLUGINS``) are not listed and its gallery entries vanish.
 
     Example::
 
@@ -77,7 +80,8 @@ def procgen_gallery_lists() -> "list[Path]":
     """Return gallery list files (TOML with ``[[entry]]`` tables) that this plugin adds.
 
     Entries name recipes (usually the plugin's own, from ``procgen_recipe_dirs``) and appear in
-    ``procgen gallery`` and its contact sheet beside the built-in families.
+    ``procgen gallery`` and its contact sheet beside the built-in families. An entry whose recipe
+    needs a rule that no loaded plugin registers is left out with a one-line note on stderr.
 
     Example::
 

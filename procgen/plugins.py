@@ -35,6 +35,19 @@ class PluginStatus:
     rules: list[str] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class RecipeFolder:
+    """Recipes under ``root``, named by their path relative to it (``clouds/fig-3-22``); with a
+    ``family``, only those in ``root/family`` (a plugin's share of a folder several plugins use)."""
+
+    root: Path
+    family: str = ""
+
+    @property
+    def path(self) -> Path:
+        return self.root / self.family if self.family else self.root
+
+
 def disabled_plugins() -> set[str]:
     raw = os.environ.get("PROCGEN_DISABLE_PLUGINS", "")
     return {p.strip() for p in raw.split(",") if p.strip()}
@@ -150,15 +163,23 @@ class PluginHost:
             self._exporters = dict(sorted(ex.items()))
         return self._exporters
 
-    def recipe_dirs(self) -> list[Path]:
-        from .data import builtin_rules_dir
-
-        dirs = [builtin_rules_dir()]
-        dirs += [Path(p) for _, p in self._collect("procgen_recipe_dirs")]
-        return [d for d in dirs if d is not None and d.is_dir()]
+    def recipe_folders(self) -> list["RecipeFolder"]:
+        """The folders every loaded plugin ships recipes in (``procgen_recipe_dirs``), in load order."""
+        folders = []
+        for plugin, item in self._collect("procgen_recipe_dirs"):
+            if isinstance(item, tuple) and len(item) == 2 and isinstance(item[1], str):
+                folder = RecipeFolder(Path(item[0]), item[1])
+            elif isinstance(item, (str, Path)):
+                folder = RecipeFolder(Path(item))
+            else:
+                self._mark_broken(plugin, f"procgen_recipe_dirs: {item!r} is neither a Path nor (Path, family)")
+                continue
+            if folder.path.is_dir():
+                folders.append(folder)
+        return folders
 
     def gallery_lists(self) -> list[Path]:
-        """Gallery list files contributed by plugins (the built-in list is gallery/gallery.toml)."""
+        """Gallery list files that loaded plugins contribute (``procgen_gallery_lists``)."""
         return [Path(p) for _, p in self._collect("procgen_gallery_lists") if Path(p).is_file()]
 
     def rule(self, name: str) -> type[RuleBase]:

@@ -91,20 +91,29 @@ def find_recipe(ref: str | Path, host: "PluginHost") -> Path:
     if p.is_file():
         return p
     name = str(ref).removesuffix(".toml")
-    for d in host.recipe_dirs():
-        cand = d / f"{name}.toml"
-        if cand.is_file():
-            return cand
     known = list_recipes(host)
+    if name in known:
+        return known[name]
     raise RecipeError(f"{ref}: no such recipe file or built-in recipe{did_you_mean(name, known)}")
 
 
 def list_recipes(host: "PluginHost") -> dict[str, Path]:
+    """Every recipe the loaded plugins ship, by name; the first plugin to ship a name wins."""
     out: dict[str, Path] = {}
-    for d in host.recipe_dirs():
-        for f in sorted(d.rglob("*.toml")):
-            out.setdefault(f.relative_to(d).with_suffix("").as_posix(), f)
+    for folder in host.recipe_folders():
+        for f in sorted(folder.path.rglob("*.toml")):
+            out.setdefault(f.relative_to(folder.root).with_suffix("").as_posix(), f)
     return dict(sorted(out.items()))
+
+
+def rules_missing(path: Path, host: "PluginHost") -> list[str]:
+    """Rules a recipe file names that no loaded plugin registers (a disabled or absent family)."""
+    try:
+        steps = read_toml(path).get("steps", [])
+    except RecipeError:
+        return []          # unreadable: the full check reports it where the recipe is used
+    names = [s.get("rule") for s in steps if isinstance(s, dict)] if isinstance(steps, list) else []
+    return sorted({n for n in names if isinstance(n, str) and n not in host.rules})
 
 
 def read_toml(path: Path) -> dict[str, Any]:

@@ -29,8 +29,7 @@ id = "broken"
 title = "fails on purpose"
 set = {{ "steps.0.params.nx" = 8, "outputs.0.options.cmap" = "no_such_cmap" }}
 """)
-    monkeypatch.setattr("procgen.gallery.gallery_dir", lambda: tmp_path)
-    monkeypatch.setattr(type(host), "gallery_lists", lambda self: [])   # only this test's list
+    monkeypatch.setattr(type(host), "gallery_lists", lambda self: [g])   # only this test's list
     assert [e.slug for e in load_gallery(host)] == ["demo-basics", "broken"]
     out = tmp_path / "out"
     rep = build_gallery(host, jobs=2, quick=True, out_dir=out, progress=False)

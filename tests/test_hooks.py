@@ -71,7 +71,7 @@ def test_throwaway_plugin_adds_rule_exporter_and_recipe_dir(tmp_path):
                         procgen_recipe_dirs=procgen_recipe_dirs, procgen_gallery_lists=procgen_gallery_lists)
     host = get_plugin_manager([mod])
     assert "test.noop" in host.rules and "kindname" in host.exporters
-    assert tmp_path in host.recipe_dirs()
+    assert tmp_path in [f.root for f in host.recipe_folders()]
     from procgen.gallery import load_gallery
     from procgen.recipes import load_recipe
 
@@ -96,7 +96,7 @@ def test_invalid_registrations_mark_plugin_broken():
                                              procgen_register_exporters=procgen_register_exporters,
                                              procgen_recipe_dirs=procgen_recipe_dirs)])
     assert "x.y" not in host.rules and "not an exporter" not in host.exporters
-    host.recipe_dirs()
+    host.recipe_folders()
     bad = [s for s in host.statuses if s.name == "bad"][0]
     assert not bad.ok and "boom" in bad.error or "not a procgen.Exporter" in bad.error
 

@@ -5,7 +5,6 @@ import importlib
 import tomllib
 from importlib import metadata
 
-from procgen.data import builtin_rules_dir, gallery_dir
 from procgen.recipes import list_recipes, load_recipe
 
 from _paths import ROOT
@@ -41,21 +40,32 @@ def test_no_plugin_is_broken(host):
         assert s.ok
 
 
+def _forced() -> dict[str, str]:
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    return data["tool"]["hatch"]["build"]["targets"]["wheel"]["force-include"]
+
+
 def test_recipes_and_gallery_lists_are_found(host):
-    assert builtin_rules_dir().is_dir()
-    assert (gallery_dir() / "gallery.toml").is_file()
     recipes = list_recipes(host)
     assert "demo/basics" in recipes
     for f in (ROOT / "rules").rglob("*.toml"):
         name = f.relative_to(ROOT / "rules").with_suffix("").as_posix()
         assert name in recipes, f"recipe {name} is not visible through the install"
-
-
-def test_every_gallery_list_file_is_shipped():
-    data = tomllib.loads((ROOT / "pyproject.toml").read_text())
-    forced = data["tool"]["hatch"]["build"]["targets"]["wheel"]["force-include"]
+    lists = {p.name for p in host.gallery_lists()}
     for f in (ROOT / "gallery").glob("*.toml"):
-        assert f"gallery/{f.name}" in forced, f"gallery/{f.name} is not shipped in the wheel"
+        assert f.name in lists, f"gallery/{f.name} is shipped by no plugin"
+
+
+def test_every_family_folder_and_gallery_list_ships_in_a_plugin_package():
+    forced = _forced()
+    packages = {t.split(".")[0] for t in _declared_entry_points().values()}
+    for family in (ROOT / "rules").iterdir():
+        if family.is_dir():
+            target = forced.get(f"rules/{family.name}", "")
+            assert target.endswith(f"/recipes/{family.name}"), f"rules/{family.name} is not shipped"
+            assert target.split("/")[0] in packages | {"procgen"}
+    for f in (ROOT / "gallery").glob("*.toml"):
+        assert forced.get(f"gallery/{f.name}", "").endswith(f"/gallery/{f.name}"), f"gallery/{f.name} not shipped"
 
 
 def test_every_shipped_recipe_passes_check(host):
@@ -76,10 +86,14 @@ def test_wheel_ships_plugins_recipes_and_gallery(tmp_path):
     for target in _declared_entry_points().values():
         pkg = target.split(".")[0]
         assert f"{pkg}/__init__.py" in names, f"{pkg} missing from the wheel"
-    for f in (ROOT / "rules").rglob("*.toml"):
-        assert f"procgen/_data/rules/{f.relative_to(ROOT / 'rules').as_posix()}" in names
+    forced = _forced()
+    for f in (ROOT / "rules").rglob("*"):
+        if f.is_file() and f.parent != ROOT / "rules":     # recipes and the meshes they name
+            family = f.relative_to(ROOT / "rules").parts[0]
+            rest = f.relative_to(ROOT / "rules" / family).as_posix()
+            assert f"{forced[f'rules/{family}']}/{rest}" in names, f"{f} missing from the wheel"
     for f in (ROOT / "gallery").glob("*.toml"):
-        assert f"procgen/_data/gallery/{f.name}" in names
+        assert forced[f"gallery/{f.name}"] in names
     ep = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(ep).decode()
     for name in _declared_entry_points():

@@ -1,9 +1,13 @@
-"""Hook implementations that register this family's rules with procgen.
+"""Hook implementations that register this family's rules with procgen and ship its
+recipes and gallery list, as any outside plugin does.
 
 Importing the domain module here registers the ``SurfaceCells`` kind as soon as the plugin is
 loaded, so ``State.load`` can read saved states before any rule is looked up.
 """
+from pathlib import Path
+
 from procgen import hookimpl
+from procgen.data import plugin_gallery_lists, plugin_recipe_dirs
 
 from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domain kind)
 
@@ -20,3 +24,13 @@ def procgen_register_rules():
 def procgen_register_exporters():
     from .exporters import EXPORTERS
     return list(EXPORTERS)
+
+
+@hookimpl
+def procgen_recipe_dirs():
+    return plugin_recipe_dirs(Path(__file__).parent, "meshes")
+
+
+@hookimpl
+def procgen_gallery_lists():
+    return plugin_gallery_lists(Path(__file__).parent, "meshes.toml")

@@ -1,5 +1,9 @@
-"""Hook implementations that register this family's rules with procgen."""
+"""Hook implementations that register this family's rules with procgen and ship its
+recipes and gallery list, as any outside plugin does."""
+from pathlib import Path
+
 from procgen import hookimpl
+from procgen.data import plugin_gallery_lists, plugin_recipe_dirs
 
 
 @hookimpl
@@ -12,3 +16,13 @@ def procgen_register_rules():
 def procgen_register_exporters():
     from .exporters import EXPORTERS
     return list(EXPORTERS)
+
+
+@hookimpl
+def procgen_recipe_dirs():
+    return plugin_recipe_dirs(Path(__file__).parent, "terrain")
+
+
+@hookimpl
+def procgen_gallery_lists():
+    return plugin_gallery_lists(Path(__file__).parent, "terrain.toml")

@@ -1,6 +1,9 @@
 """Registers the built-in rules and exporters through the same hooks as any outside plugin."""
 from __future__ import annotations
 
+from pathlib import Path
+
+from ..data import plugin_gallery_lists, plugin_recipe_dirs
 from ..hookspecs import hookimpl
 
 
@@ -25,4 +28,11 @@ def procgen_register_exporters():
 
 @hookimpl
 def procgen_recipe_dirs():
-    return []
+    # demo: the core's own rules; chains: recipes crossing families (an entry needing a disabled
+    # family is left out of the gallery with a note; its recipe fails `procgen check` by name)
+    return plugin_recipe_dirs(Path(__file__).parent, "demo", "chains")
+
+
+@hookimpl
+def procgen_gallery_lists():
+    return plugin_gallery_lists(Path(__file__).parent, "gallery.toml", "chains.toml")
