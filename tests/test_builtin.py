@@ -159,7 +159,7 @@ def test_lathe_closed_profile_is_watertight_solid_of_revolution(host):
     prof[0, 0] = prof[-1, 0] = 0.0
     st = State(seed=1)
     st.add_domain("profile", Polylines.from_list([prof]))
-    Lathe(sections=96).step(st)
-    tm = st.get("lathed").to_trimesh()
+    Lathe(lines="profile", sections=96).step(st)
+    tm = st.get("mesh").to_trimesh()
     assert tm.is_watertight
     assert np.isclose(tm.volume, 4 / 3 * np.pi, rtol=0.02)   # unit sphere, normals outwards

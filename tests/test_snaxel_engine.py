@@ -55,7 +55,7 @@ def check_snake(g: CloudGrowth, previous: Polygon | None) -> Polygon:
     xy = s.xy()
     poly = Polygon(xy)
     assert poly.is_valid and poly.exterior.is_simple
-    assert s.signed_area(xy) > 0
+    assert poly.exterior.is_ccw
     # 7: each vertex entered at most once: births == visited vertices - source
     assert s.births == int(np.count_nonzero(s.state == 1)) - 1
     # 8: silhouettes nest

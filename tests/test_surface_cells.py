@@ -260,7 +260,7 @@ def test_any_triangle_is_tiled_exactly(coords, frame, s):
     assert lay.n_cells >= 1
     assert lay.area.sum() == pytest.approx(area, rel=1e-9)
     assert np.all(lay.area > 0) and np.all(lay.area <= (s * longest) ** 2 * (1 + 1e-9))
-    from procgen_surface.domain import barycentric
+    from procgen.geometry import barycentric
     bc = barycentric(np.repeat(lay.frames.corners2d, lay.n_cells, axis=0), lay.center2d)
     inside = np.all(bc >= -1e-9, axis=1)
     assert np.array_equal(inside[np.all(np.abs(bc) > 1e-7, axis=1)],

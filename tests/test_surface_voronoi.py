@@ -176,7 +176,7 @@ def test_disc_across_a_45_degree_misaligned_edge_stays_round():
     """Plate 3.2: one seed beside the shared edge of two folded triangles whose grids meet at
     45 degrees (the worst case); after r steps the region matches the geodesic disc of radius
     r cells (thesis: 87 % at r = 10, 99.9 % at r = 70)."""
-    from procgen_surface.domain import barycentric
+    from procgen.geometry import barycentric
     fold = (Path(__file__).resolve().parents[1] / "rules" / "meshes" / "fold.obj")
     m = trimesh.load(fold, process=False, force="mesh")
     v, f = np.asarray(m.vertices), np.asarray(m.faces)

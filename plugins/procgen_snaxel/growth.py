@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from procgen.geometry import signed_area
+
 from .config import GrowthConfig
 from .snake import CURVE, ELEN, POS, T, U, UNVISITED, V, Snake
 from .speeds import base_speed, blend, circular_profile, effect_coefficient, linear_profile
@@ -416,6 +418,6 @@ class CloudGrowth:
             "splits": self.stats.splits, "curve_merges": self.stats.curve_merges,
             "curves": int(len(runs.starts)), "clusters_grown": self.stats.clusters_grown,
             "clusters_stalled": self.stats.clusters_stalled, "sketch_steps": self.stats.sketch_steps,
-            "area": Snake.signed_area(xy), "perimeter": runs.perimeter,
+            "area": signed_area(xy), "perimeter": runs.perimeter,
             "bbox": [float(xy[:, 0].min()), float(xy[:, 1].min()), float(xy[:, 0].max()), float(xy[:, 1].max())],
         }

@@ -21,6 +21,8 @@ from collections import deque
 
 import numpy as np
 
+from procgen.geometry import signed_area
+
 from .topology import Topology
 
 U, V, CURVE = 0, 1, 2
@@ -85,11 +87,6 @@ class Snake:
     def xy(self) -> np.ndarray:
         f = self.flts
         return np.column_stack([f[:, OX] + f[:, DX] * f[:, POS], f[:, OY] + f[:, DY] * f[:, POS]])
-
-    @staticmethod
-    def signed_area(xy: np.ndarray) -> float:
-        x, y = xy[:, 0], xy[:, 1]
-        return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
     def roll(self, k: int) -> None:
         """Rotate the chain (same loop, different first snaxel)."""
@@ -208,7 +205,7 @@ class Snake:
         areas = []
         for bi, bf in built:
             xy = np.column_stack([bf[:, OX] + bf[:, DX] * bf[:, POS], bf[:, OY] + bf[:, DY] * bf[:, POS]])
-            areas.append(self.signed_area(xy))
+            areas.append(signed_area(xy))
         best = int(np.argmax(areas))
         if int(np.argmax([len(bi) for bi, _ in built])) != best:
             self.hole_rule_disagreements += 1

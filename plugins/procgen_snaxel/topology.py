@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procgen.errors import InputError
+from procgen.geometry import ccw_faces, orient2d
 
 
 @dataclass(frozen=True)
@@ -61,11 +62,9 @@ def build_topology(points: np.ndarray, faces: np.ndarray) -> Topology:
         raise InputError(f"snaxel tessellation: need (m, 3) triangles, got {tri.shape}")
     if tri.min() < 0 or tri.max() >= len(pts):
         raise InputError("snaxel tessellation: a face index is outside the vertex array")
-    a, b, c = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
-    cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    if np.any(cross == 0):
+    if np.any(orient2d(pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]) == 0):
         raise InputError("snaxel tessellation: degenerate (zero-area) triangle")
-    tri = np.where((cross < 0)[:, None], tri[:, [0, 2, 1]], tri)
+    tri = ccw_faces(pts, tri)
     # directed half-edges of CCW triangles; each interior edge appears once per direction
     src = tri.ravel()
     dst = tri[:, [1, 2, 0]].ravel()

@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from procgen import geometry as geo
 from procgen.domains import Domain, frozen, register_domain_kind
 from procgen.errors import InputError
 from procgen.materials import MaterialTable, parse_materials
@@ -66,7 +67,7 @@ class SurfaceCells(Domain):
         if layout.n_cells == 0:
             raise InputError("SurfaceCells: no cell overlaps any triangle")
         graph, _ = build_neighbours(layout, v, f, neighbours)
-        vn = _vertex_normals(v, f) if vertex_normals is None else vertex_normals
+        vn = geo.vertex_normals(v, f) if vertex_normals is None else vertex_normals
         normal = _interpolated_normals(layout, v, f, vn)
         arrays = {"vertices": v, "faces": f, "origin": layout.frames.origin, "ex": layout.frames.ex,
                   "ey": layout.frames.ey, "corners2d": layout.frames.corners2d,
@@ -134,32 +135,6 @@ class SurfaceCells(Domain):
         return cls(arrays, meta)
 
 
-def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    acc = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(acc, f[:, k], cr)
-    ln = np.linalg.norm(acc, axis=1, keepdims=True)
-    return np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
-
-
-def face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    ln = np.linalg.norm(cr, axis=1, keepdims=True)
-    return np.divide(cr, ln, out=np.zeros_like(cr), where=ln > 0)
-
-
-def barycentric(corners2d: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (n, 3) of 2-D points p (n, 2) in triangles (n, 3, 2)."""
-    a, b, c = corners2d[:, 0], corners2d[:, 1], corners2d[:, 2]
-    v0, v1, v2 = b - a, c - a, p - a
-    d = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
-    d = np.where(np.abs(d) > 0, d, 1.0)
-    l1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / d
-    l2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / d
-    return np.column_stack([1 - l1 - l2, l1, l2])
-
-
 def _interpolated_normals(layout: CellLayout, v: np.ndarray, f: np.ndarray,
                           vn: np.ndarray) -> np.ndarray:
     """Cell normal: vertex normals interpolated at the (clamped) centre; face normal fallback.
@@ -167,8 +142,8 @@ def _interpolated_normals(layout: CellLayout, v: np.ndarray, f: np.ndarray,
     Vertex normals are flipped to the face's side when they disagree (sharp edges, open sheets).
     """
     fc = layout.face
-    fn = face_normals(v, f)[fc]
-    bc = np.clip(barycentric(layout.frames.corners2d[fc], layout.center2d), 0, None)
+    fn = geo.face_normals(v, f)[fc]
+    bc = np.clip(geo.barycentric(layout.frames.corners2d[fc], layout.center2d), 0, None)
     bc /= np.maximum(bc.sum(1, keepdims=True), 1e-300)
     vv = vn[f[fc]]                                                     # (n, 3, 3)
     vv = np.where((np.sum(vv * fn[:, None], 2) < 0)[..., None], -vv, vv)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from procgen import geometry as geo
 from procgen.domains import TriMesh
 
 from .domain import SurfaceCells
@@ -143,8 +144,8 @@ def displaced_mesh(cells: SurfaceCells, height: np.ndarray, rgb: np.ndarray, ali
     np.add.at(pos, inv, xyz)
     pos /= cnt[:, None]
     # normals: face-sign-corrected vertex normals interpolated, averaged over duplicates
-    fn = cells_face_normals(cells)[f_rep]
-    vn = vertex_normals(cells)[verts_src]
+    fn = geo.face_normals(cells.vertices, cells.faces)[f_rep]
+    vn = geo.vertex_normals(cells.vertices, cells.faces)[verts_src]
     vn = np.where((np.sum(vn * fn[:, None], 2) < 0)[..., None], -vn, vn)
     nrm_s = np.einsum("nk,nkd->nd", bc, vn)
     nrm = np.zeros((nv, 3))
@@ -179,16 +180,6 @@ def displaced_mesh(cells: SurfaceCells, height: np.ndarray, rgb: np.ndarray, ali
     remap = np.full(nv, -1, np.int64)
     remap[used] = np.arange(len(used))
     return DisplacedMesh(pos[used], remap[faces_out], uv, col[used], t_cell, t_face, xy[t_flat])
-
-
-def cells_face_normals(cells: SurfaceCells) -> np.ndarray:
-    from .domain import face_normals
-    return face_normals(cells.vertices, cells.faces)
-
-
-def vertex_normals(cells: SurfaceCells) -> np.ndarray:
-    from .domain import _vertex_normals
-    return _vertex_normals(cells.vertices, cells.faces)
 
 
 # -- file writers: the core's OBJ/GLB exporters, fed a TriMesh with UV and texture fields ----

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procgen.errors import InputError
+from procgen.geometry import orient2d, triangle_cross
 
 MAX_POLY = 8          # a square clipped by 3 half-planes has at most 7 vertices
 DEGENERATE_RATIO = 1e-10  # 2*area / longest_edge^2 below this = degenerate (zero height)
@@ -83,8 +84,7 @@ def edge_half_planes(corners2d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     p0 = corners2d
     p1 = corners2d[:, [1, 2, 0]]
     e = p1 - p0
-    d = p0[:, 2] - p0[:, 0]
-    orient = np.sign(e[:, 0, 0] * d[:, 1] - e[:, 0, 1] * d[:, 0])[:, None]   # +1 counter-clockwise
+    orient = np.sign(orient2d(p0[:, 0], p0[:, 1], p0[:, 2]))[:, None]       # +1 counter-clockwise
     nrm = np.stack([-e[..., 1], e[..., 0]], axis=2) * orient[..., None]
     ln = np.linalg.norm(nrm, axis=2, keepdims=True)
     nrm = nrm / np.where(ln > 0, ln, 1.0)
@@ -252,7 +252,7 @@ def triangle_metrics(vertices: np.ndarray, faces: np.ndarray) -> dict[str, np.nd
     """Side lengths (m, 3), heights (m, 3), areas (m,) and the degenerate mask of each triangle."""
     p = vertices[faces]
     sides = np.linalg.norm(p[:, [1, 2, 0]] - p, axis=2)
-    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    area = 0.5 * np.linalg.norm(triangle_cross(vertices, faces), axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         heights = np.where(sides > 0, 2 * area[:, None] / np.where(sides > 0, sides, 1), 0.0)
     longest = sides.max(axis=1)

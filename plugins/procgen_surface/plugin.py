@@ -14,9 +14,9 @@ from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domai
 
 @hookimpl
 def procgen_register_rules():
-    from .rules import (BuildCells, CupPrimitive, LatticePrimitive, RevolvePrimitive, ShadeCells,
+    from .rules import (BuildCells, CupPrimitive, LatticePrimitive, ShadeCells,
                         SurfaceCorrosion, SurfaceLayers, SurfaceVoronoi)
-    return [CupPrimitive, RevolvePrimitive, LatticePrimitive, BuildCells, SurfaceLayers,
+    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceLayers,
             SurfaceVoronoi, SurfaceCorrosion, ShadeCells]
 
 

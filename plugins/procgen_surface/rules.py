@@ -46,35 +46,6 @@ class CupPrimitive(RuleBase):
 
 
 @dataclass(kw_only=True)
-class RevolvePrimitive(RuleBase):
-    """Generator: the surface of revolution of an (r, z) profile about z (cups, vases, tori).
-
-    An open profile must start and end on the axis; ``loop`` revolves a closed profile into a
-    torus-like ring (e.g. 4 points x 4 sections = the 32-facet object of plate 2-9).
-    """
-
-    name: ClassVar[str] = "surface.revolve"
-    creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
-    mesh: str = param("mesh", doc="name of the TriMesh to create")
-    profile: list[list[float]] = param([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
-                                       doc="(r, z) points of the profile")
-    sections: int = param(24, ge=3, le=2000, doc="segments around the axis")
-    loop: bool = param(False, doc="profile is a closed loop off the axis (torus-like)")
-
-    def validate(self) -> None:
-        if any(len(p) != 2 for p in self.profile) or len(self.profile) < 3:
-            raise ValueError("profile must be at least 3 [r, z] points")
-
-    def step(self, state: State) -> bool:
-        from procgen.builtin.solids import revolve, revolve_loop
-        p = np.asarray(self.profile, dtype=float)
-        v, f = revolve_loop(p, self.sections) if self.loop else revolve(p, self.sections)
-        state.add_domain(self.mesh, TriMesh(v, f))
-        state.report(f"{self.mesh}.n_faces", len(f))
-        return True
-
-
-@dataclass(kw_only=True)
 class LatticePrimitive(RuleBase):
     """Generator: a closed lattice of square bars (voxel-union surface), e.g. the bronze lattice."""
 
@@ -104,14 +75,10 @@ def carry_mesh_fields(mesh: TriMesh, sc: SurfaceCells) -> None:
     Numeric vertex fields are interpolated at each cell centre (barycentric, exact for linear
     fields); face fields stay on the source faces.
     """
+    from procgen.geometry import barycentric
+
     corners = sc.faces[sc.face]                                   # (n, 3) vertex ids per cell
-    a, b, c = (sc.vertices[corners[:, k]] for k in range(3))
-    v0, v1, v2 = b - a, c - a, sc.center3d - a
-    d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
-    d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
-    den = np.where(np.abs(d00 * d11 - d01 * d01) > 0, d00 * d11 - d01 * d01, 1.0)
-    w1, w2 = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
-    bary = np.column_stack([1 - w1 - w2, w1, w2])
+    bary = barycentric(sc.vertices[corners], sc.center3d)
     for name, arr, info in mesh.fields():
         if info.at == "vertex" and np.issubdtype(arr.dtype, np.number) and arr.dtype != bool:
             vals = np.asarray(arr, dtype=np.float64)[corners]        # (n, 3, ...)

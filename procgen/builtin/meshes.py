@@ -10,6 +10,7 @@ import numpy as np
 from ..data import meshes_dir
 from ..domains import PointSet, Polylines, TriMesh
 from ..errors import InputError
+from ..geometry import ccw_faces
 from ..params import param
 from ..rules import RuleBase
 from ..state import State
@@ -42,11 +43,7 @@ class DelaunayTessellation(RuleBase):
             tri = Delaunay(pts)
         except QhullError as exc:
             raise InputError(f"mesh.delaunay: points are degenerate ({str(exc).splitlines()[0]})") from None
-        faces = tri.simplices.astype(np.int64)
-        a, b, c = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
-        cw = ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) < 0
-        faces[cw] = faces[cw][:, [0, 2, 1]]
-        mesh = TriMesh(pts, faces)
+        mesh = TriMesh(pts, ccw_faces(pts, tri.simplices))
         mesh.copy_fields_from(ps, {"point": "vertex"})
         state.add_domain(self.mesh, mesh)
         state.report(f"{self.mesh}.n_vertices", mesh.n_vertices)
@@ -115,24 +112,21 @@ class LoadMesh(RuleBase):
 
 
 def clean_mesh(mesh: TriMesh) -> TriMesh:
-    """Merge coincident vertices, drop zero-area and duplicate faces, drop unused vertices."""
+    """Weld coincident vertices, drop degenerate and duplicate faces and unused vertices.
+
+    trimesh's own cleaning, with tolerances relative to the mesh size (1e-9 of its extent)
+    rather than trimesh's absolute default, so tiny and huge models clean alike.
+    """
     v = mesh.vertices
     scale = max(float(np.ptp(v, axis=0).max()), 1e-12)
-    key = np.round(v / (scale * 1e-9)).astype(np.int64)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    faces = inverse.ravel()[mesh.faces]
-    ok = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    faces = faces[ok]
-    _, uniq = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
-    faces = faces[np.sort(uniq)]
-    tmp = TriMesh(v[first], faces)
-    faces = faces[tmp.face_areas > 1e-14 * scale * scale]
-    if len(faces) == 0:
+    tm = mesh.to_trimesh()
+    tm.merge_vertices(digits_vertex=int(np.ceil(-np.log10(scale * 1e-9))))
+    tm.update_faces(tm.nondegenerate_faces(height=scale * 1e-9))
+    tm.update_faces(tm.unique_faces())
+    tm.remove_unreferenced_vertices()
+    if len(tm.faces) == 0:
         raise InputError("mesh.load: every face is degenerate")
-    used = np.unique(faces)
-    remap = np.full(len(first), -1, np.int64)
-    remap[used] = np.arange(len(used))
-    return TriMesh(v[first][used], remap[faces])
+    return TriMesh(np.asarray(tm.vertices)[:, : mesh.dim], np.asarray(tm.faces))
 
 
 @dataclass(kw_only=True)

@@ -1,4 +1,4 @@
-"""Converters from 2-D outlines to 3-D meshes: extrusion (a slab) and lathing (a vase/cup).
+"""2-D outlines and profiles to 3-D meshes: extrusion (a slab) and lathing (a vase, cup or ring).
 
 They let a snaxel cloud outline or a smoothed contour become a surface that mesh automata
 grow on. Caps are triangulated from the outline plus interior Poisson-disk points, so the
@@ -13,6 +13,7 @@ import numpy as np
 
 from ..domains import Polylines, TriMesh
 from ..errors import InputError
+from ..geometry import ccw_faces, ccw_ring, signed_area
 from ..params import param
 from ..rules import RuleBase
 from ..state import State
@@ -28,11 +29,7 @@ def resample_ring(ring: np.ndarray, spacing: float) -> np.ndarray:
     s = np.concatenate([[0], np.cumsum(seg)])
     n = max(8, int(np.ceil(s[-1] / spacing)))
     t = np.linspace(0, s[-1], n, endpoint=False)
-    out = np.column_stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])])
-    x, y = out[:, 0], out[:, 1]
-    if 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
-        out = out[::-1]
-    return out
+    return ccw_ring(np.column_stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])]))
 
 
 def triangulate_polygon(ring: np.ndarray, spacing: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -57,17 +54,14 @@ def triangulate_polygon(ring: np.ndarray, spacing: float, rng: np.random.Generat
     faces = Delaunay(pts).simplices
     cen = pts[faces].mean(axis=1)
     faces = faces[shapely.contains_xy(poly, cen[:, 0], cen[:, 1])]
-    a, b, c = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
-    cw = ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) < 0
-    faces[cw] = faces[cw][:, [0, 2, 1]]
-    return pts, faces.astype(np.int64)
+    return pts, ccw_faces(pts, faces)
 
 
 def _outer_ring(pl: Polylines, which: str) -> np.ndarray:
     rings = [pl.line(i) for i in range(pl.n_lines) if pl.closed[i] and len(pl.line(i)) >= 3]
     if not rings:
         raise InputError(f"{which}: the Polylines hold no closed ring to use as an outline")
-    areas = [abs(0.5 * np.sum(r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1])) for r in rings]
+    areas = [abs(signed_area(r)) for r in rings]
     return rings[int(np.argmax(areas))]
 
 
@@ -186,13 +180,45 @@ def revolve_loop(profile: np.ndarray, sections: int) -> tuple[np.ndarray, np.nda
 
 
 
+def lathe(profile: np.ndarray, sections: int, closed: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of a (k, 2) profile (r, z) revolved about z.
+
+    A closed profile (r > 0) gives a ring, a profile from the axis back to the axis a closed
+    solid (both outward-wound), any other an open surface (a tube, a vase wall).
+    """
+    prof = np.array(profile, dtype=np.float64)
+    if prof.ndim != 2 or prof.shape[1] != 2 or len(prof) < 2:
+        raise InputError(f"lathe: the profile needs at least two (r, z) points, got shape {prof.shape}")
+    if (prof[:, 0] < -1e-12).any():
+        raise InputError("lathe: profile r (radius) must be >= 0")
+    if closed:
+        return revolve_loop(prof, sections)
+    on_axis = np.abs(prof[:, 0]) < 1e-12
+    if on_axis[0] and on_axis[-1] and not on_axis[1:-1].any():
+        prof[on_axis, 0] = 0.0
+        return revolve(prof, sections)
+    k, s = len(prof), sections
+    ang = 2 * np.pi * np.arange(s) / s
+    verts = np.stack([prof[:, 0:1] * np.cos(ang), prof[:, 0:1] * np.sin(ang),
+                      np.repeat(prof[:, 1:2], s, axis=1)], axis=2).reshape(-1, 3)
+    idx = np.arange(k * s).reshape(k, s)
+    a, b = idx[:-1], np.roll(idx[:-1], -1, axis=1)
+    c, d = idx[1:], np.roll(idx[1:], -1, axis=1)
+    faces = np.concatenate([np.stack([a, b, d], -1).reshape(-1, 3), np.stack([a, d, c], -1).reshape(-1, 3)])
+    from .meshes import clean_mesh
+
+    m = clean_mesh(TriMesh(verts, faces))          # welds the seam and the axis points
+    return m.vertices, m.faces
+
+
 @dataclass(kw_only=True)
 class Lathe(RuleBase):
-    """Converter: an open profile polyline (x = radius, y = height) revolved about the z axis.
+    """Generator or converter: a profile (r = radius, z = height) revolved about the z axis.
 
-    Cups, vases and bowls: the thesis's cup objects are lathed profiles. A profile running from
-    the axis back to the axis gives a closed solid (caps at the axis points), a closed loop off
-    the axis a ring, any other profile an open surface.
+    Cups, vases, bowls and rings: the thesis's cup objects and plate 2-9's 32-facet ring are
+    lathed profiles. The profile is ``profile`` (``loop`` closes it) or, with ``lines``, the first
+    line of a Polylines (x = r, y = z; closed if that line is). From the axis back to the axis it
+    gives a closed solid, a closed loop off the axis a ring, any other profile an open surface.
     """
 
     name: ClassVar[str] = "mesh.lathe"
@@ -202,35 +228,29 @@ class Lathe(RuleBase):
         {"rule": "points.poisson_disk", "params": {"radius": 0.1}}, {"rule": "mesh.delaunay"},
         {"rule": "mesh.boundary"}, {"rule": "mesh.lathe", "params": {"lines": "outline", "sections": 12}})
 
-    lines: str = param("profile", doc="Polylines whose first line is the profile (x = radius, y = z)")
-    mesh: str = param("lathed", doc="name of the TriMesh to create")
+    profile: list[list[float]] = param([], doc="(r, z) points of the profile (or give lines)")
+    loop: bool = param(False, doc="profile is a closed loop off the axis (a ring)")
+    lines: str = param("", doc="Polylines whose first line is the profile (x = r, y = z), instead of profile")
+    mesh: str = param("mesh", doc="name of the TriMesh to create")
     sections: int = param(64, ge=3, le=4096, doc="segments around the axis")
 
-    def step(self, state: State) -> bool:
-        pl = state.get(self.lines, Polylines)
-        prof = np.array(pl.line(0)[:, :2], dtype=np.float64)
-        if len(prof) < 2:
-            raise InputError("mesh.lathe: the profile needs at least two points")
-        if (prof[:, 0] < -1e-12).any():
-            raise InputError("mesh.lathe: profile x (radius) must be >= 0")
-        if bool(pl.closed[0]):                       # a loop off the axis: a torus-like ring
-            state.add_domain(self.mesh, TriMesh(*revolve_loop(prof, self.sections)))
-            return True
-        on_axis = np.abs(prof[:, 0]) < 1e-12
-        if on_axis[0] and on_axis[-1] and not on_axis[1:-1].any():   # axis to axis: a closed solid
-            prof[on_axis, 0] = 0.0
-            state.add_domain(self.mesh, TriMesh(*revolve(prof, self.sections)))
-            return True
-        k, s = len(prof), self.sections             # otherwise an open surface (a tube, a vase wall)
-        ang = 2 * np.pi * np.arange(s) / s
-        verts = np.stack([prof[:, 0:1] * np.cos(ang), prof[:, 0:1] * np.sin(ang),
-                          np.repeat(prof[:, 1:2], s, axis=1)], axis=2).reshape(-1, 3)
-        idx = np.arange(k * s).reshape(k, s)
-        a, b = idx[:-1], np.roll(idx[:-1], -1, axis=1)
-        c, d = idx[1:], np.roll(idx[1:], -1, axis=1)
-        faces = np.concatenate([np.stack([a, b, d], -1).reshape(-1, 3), np.stack([a, d, c], -1).reshape(-1, 3)])
-        mesh = TriMesh(verts, faces)
-        from .meshes import clean_mesh
+    def validate(self) -> None:
+        if bool(self.lines) == bool(self.profile):
+            raise ValueError("give exactly one of profile ([[r, z], ...]) and lines (a Polylines name)")
+        if self.lines and self.loop:
+            raise ValueError("loop goes with profile; a Polylines line says itself whether it is closed")
+        if any(len(p) != 2 for p in self.profile):
+            raise ValueError("profile must be a list of [r, z] points")
 
-        state.add_domain(self.mesh, clean_mesh(mesh))   # welds the seam and the axis points
+    def domains_used(self) -> dict[str, str]:
+        return {self.lines: "Polylines"} if self.lines else {}
+
+    def step(self, state: State) -> bool:
+        if self.lines:
+            pl = state.get(self.lines, Polylines)
+            verts, faces = lathe(pl.line(0)[:, :2], self.sections, bool(pl.closed[0]))
+        else:
+            verts, faces = lathe(np.asarray(self.profile, dtype=np.float64), self.sections, self.loop)
+        state.add_domain(self.mesh, TriMesh(verts, faces))
+        state.report(f"{self.mesh}.n_faces", len(faces))
         return True

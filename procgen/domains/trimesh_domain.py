@@ -6,6 +6,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .. import geometry as geo
 from ..errors import InputError
 from .base import Domain, frozen
 
@@ -141,9 +142,7 @@ class TriMesh(Domain):
 
     @cached_property
     def _cross(self) -> np.ndarray:
-        v = self.vertices if self.dim == 3 else np.column_stack([self.vertices, np.zeros(self.n_vertices)])
-        a, b, c = v[self.faces[:, 0]], v[self.faces[:, 1]], v[self.faces[:, 2]]
-        return np.cross(b - a, c - a)
+        return geo.triangle_cross(self.vertices, self.faces)
 
     @cached_property
     def face_areas(self) -> np.ndarray:
@@ -152,18 +151,12 @@ class TriMesh(Domain):
     @cached_property
     def face_normals(self) -> np.ndarray:
         """Unit normals (m, 3); zero for degenerate faces."""
-        n = self._cross
-        ln = np.linalg.norm(n, axis=1, keepdims=True)
-        return frozen(np.divide(n, ln, out=np.zeros_like(n), where=ln > 0))
+        return frozen(geo.face_normals(self.vertices, self.faces))
 
     @cached_property
     def vertex_normals(self) -> np.ndarray:
         """Area-weighted unit vertex normals (n, 3)."""
-        acc = np.zeros((self.n_vertices, 3))
-        for k in range(3):
-            np.add.at(acc, self.faces[:, k], self._cross)
-        ln = np.linalg.norm(acc, axis=1, keepdims=True)
-        return frozen(np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0))
+        return frozen(geo.vertex_normals(self.vertices, self.faces))
 
     @cached_property
     def face_centroids(self) -> np.ndarray:

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from ..geometry import barycentric, triangle_cross, vertex_normals
+
 UP_AXES = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
 
 
@@ -94,15 +96,8 @@ def pixel_barycentric(proj: Projection, faces: np.ndarray, ids: np.ndarray) -> t
     rows, cols = np.nonzero(ids >= 0)
     f = ids[rows, cols]
     p = np.column_stack([cols + 0.5, rows + 0.5])
-    a = np.column_stack([proj.px[faces[f, 0]], proj.py[faces[f, 0]]])
-    b = np.column_stack([proj.px[faces[f, 1]], proj.py[faces[f, 1]]])
-    c = np.column_stack([proj.px[faces[f, 2]], proj.py[faces[f, 2]]])
-    v0, v1, v2 = b - a, c - a, p - a
-    d = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
-    d = np.where(np.abs(d) > 1e-12, d, 1.0)
-    l1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / d
-    l2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / d
-    bc = np.clip(np.column_stack([1 - l1 - l2, l1, l2]), 0, 1)
+    corners = np.stack([proj.px[faces[f]], proj.py[faces[f]]], axis=2)      # (k, 3, 2)
+    bc = np.clip(barycentric(corners, p), 0, 1)
     bc /= bc.sum(axis=1, keepdims=True)
     return rows, cols, f, bc
 
@@ -122,17 +117,6 @@ def encode_png(rgb: np.ndarray, ids: np.ndarray, size: tuple[int, int],
     buf = io.BytesIO()
     img.save(buf, format="PNG")
     return buf.getvalue()
-
-
-def welded_vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals with coincident vertices merged (UV seams stay smooth)."""
-    _, inv = np.unique(np.round(v, 9), axis=0, return_inverse=True)
-    inv = inv.ravel()
-    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    acc = np.zeros((inv.max() + 1, 3))
-    for k in range(3):
-        np.add.at(acc, inv[f[:, k]], fn)
-    return acc[inv]
 
 
 def _texture_lookup(mesh: Any) -> tuple[np.ndarray, np.ndarray] | None:
@@ -187,12 +171,11 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
     hole = pix[:, 3] < 0.5
     rgb = pix[:, :3]
     if lit:
-        if smooth:
-            vn = welded_vertex_normals(v, f)
+        if smooth:                          # welded: UV seams shade smoothly
+            vn = vertex_normals(v, f, weld=True)
             n = np.einsum("nk,nkd->nd", bc, vn[f[tri]])
         else:
-            fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-            n = fn[tri]
+            n = triangle_cross(v, f)[tri]
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
         ld = (0.45 * right + 0.6 * sup + 0.66 * eye) if light is None else np.asarray(light, float)
         ld = ld / np.linalg.norm(ld)
