@@ -8,17 +8,7 @@ from scipy.signal import convolve2d
 from procgen import Grid, InputError, State
 from procgen.ca.graph import grid_graph
 from procgen.ca.lifelike import LifeLike, life_step, next_age, parse_rule
-
-
-def run_rule(rule, dom, steps: int, seed: int = 1) -> State:
-    st = State(seed=seed)
-    st.add_domain("cells", dom)
-    st.rule_name = rule.name
-    rule.setup(st)
-    for k in range(steps):
-        st.iteration = k
-        rule.step(st)
-    return st
+from test_ca_domains import run
 
 
 # -- notation ------------------------------------------------------------------------------
@@ -175,7 +165,7 @@ def test_age_field_and_start_from_a_field():
     dom.add_field("ca__alive", start, at="cell")
     rule = LifeLike.from_params({"initial": "field", "age_mode": "cumulative"})
     assert [s.intent for s in rule.field_specs()] == ["inout", "out"]
-    run_rule(rule, dom, 4)
+    run(rule, dom, 4)
     np.testing.assert_array_equal(dom["ca__alive"], start)      # period 2
     age = dom["ca__age"]
     assert age[9, 9] == 4 and age[9, 8] == 2 and age[8, 9] == 2 and age.sum() == 4 + 2 * 4
