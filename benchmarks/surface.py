@@ -77,6 +77,8 @@ def main() -> None:
     labels = place_seeds(sc.n_cells, 24, rng)
     print(f"cells      : {sc.n_cells:,} cells on {len(f)} triangles built in {t_build:.2f} s "
           f"({sc.n_cells / t_build:,.0f} cells/s)")
+    _, t_in = timed(lambda: sc.graph.incoming)
+    print(f"graph      : transposed (incoming) links for the frontier in {t_in:.3f} s, once per graph")
     runs = [("ca.voronoi", VoronoiGrowth)] + ([("baseline", baseline_growth(args.baseline))] if args.baseline else [])
     results = {}
     for _ in range(2):                        # alternate twice: both see the same machine load

@@ -106,6 +106,16 @@ class CellGraph:
         tab[self.rows, self._directions()] = self.indices
         return tab
 
+    @cached_property
+    def incoming(self) -> "CellGraph":
+        """The transposed graph: for each cell, the cells that list it (no directions).
+
+        Equal to this graph when links are symmetric; cross-edge links may be one-way.
+        """
+        order = np.argsort(self.indices, kind="stable")
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(self.indices, minlength=self.n_cells))])
+        return CellGraph(indptr.astype(np.int64), self.rows[order])
+
     def restrict(self, keep: np.ndarray) -> "CellGraph":
         """The same cells with only the CSR entries where ``keep`` is True."""
         keep = np.asarray(keep, bool)

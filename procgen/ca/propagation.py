@@ -52,13 +52,10 @@ class VoronoiGrowth:
     def _frontier_of(self, cells: np.ndarray) -> np.ndarray:
         """Unlabelled cells adjacent to ``cells`` (the graph is symmetric up to edge effects,
         so both directions are included)."""
-        e = self.graph.entries_of(cells)
-        near = self.graph.indices[e]
+        g, back = self.graph, self.graph.incoming
+        near = g.indices[g.entries_of(cells)]
         # also cells that list ``cells`` as a neighbour (cross-edge links may be one-way)
-        mark = np.zeros(self.graph.n_cells, bool)
-        mark[cells] = True
-        back = self.graph.rows[mark[self.graph.indices]]
-        out = np.union1d(near, back)
+        out = np.union1d(near, back.indices[back.entries_of(cells)])
         return out[self.labels[out] == 0]
 
     def step(self, rng: np.random.Generator) -> int:
