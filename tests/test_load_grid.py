@@ -125,3 +125,13 @@ def test_a_raster_bigger_than_memory_is_refused_before_reading(host, tmp_path):
         np.lib.format.write_array_header_1_0(fh, {"descr": "<f8", "fortran_order": False, "shape": (200000, 200000)})
     with pytest.raises(RecipeError, match="GiB"):
         check_recipe({"steps": [{"rule": "grid.load", "params": {"file": "huge.npy"}}]}, host, "r.toml", tmp_path)
+
+
+def test_the_shipped_heightmap_is_what_its_recipe_makes(host, tmp_path):
+    run(load_recipe("data/make-mesa", host), host, out_dir=tmp_path, progress=False)
+    shipped = load_recipe("data/terrain-from-png", host).base_dir
+    made = np.asarray(Image.open(tmp_path / "mesa-png16.png"))
+    assert np.array_equal(made, np.asarray(Image.open(shipped / "mesa-png16.png")))
+    a = json.loads((tmp_path / "mesa-png16.json").read_text())
+    b = json.loads((shipped / "mesa-png16.json").read_text())
+    assert {k: a[k] for k in ("z_min", "z_max", "spacing", "shape")} == {k: b[k] for k in ("z_min", "z_max", "spacing", "shape")}

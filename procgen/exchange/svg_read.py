@@ -21,7 +21,7 @@ import svgelements as se
 
 from ..errors import InputError
 
-_PX_MM = 25.4 / 96.0  # CSS: 96 px to the inch
+_PX_MM = 1.0 / float(se.Length("1mm").value(ppi=96.0))  # svgelements' px per mm (96 px to the inch)
 
 
 @dataclass(frozen=True)
