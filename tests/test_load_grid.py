@@ -135,3 +135,12 @@ def test_the_shipped_heightmap_is_what_its_recipe_makes(host, tmp_path):
     a = json.loads((tmp_path / "mesa-png16.json").read_text())
     b = json.loads((shipped / "mesa-png16.json").read_text())
     assert {k: a[k] for k in ("z_min", "z_max", "spacing", "shape")} == {k: b[k] for k in ("z_min", "z_max", "spacing", "shape")}
+
+
+@pytest.mark.parametrize("params, match", [
+    ({"base": "flat", "base_grid": "dem"}, "needs base = 'grid'"),
+    ({"base": "grid", "base_grid": "dem"}, "made by an earlier step"),
+])
+def test_water_surface_on_a_loaded_grid_is_checked_before_running(host, params, match):
+    with pytest.raises(RecipeError, match=match):
+        check_recipe({"steps": [{"rule": "water.surface", "params": params}]}, host, "r.toml")

@@ -60,6 +60,8 @@ class MultiLayerSurface(RuleBase):
     tilt_deg: float = param(0.0, ge=0.0, lt=89.0, units="deg", doc="tilt of the base (high at max y)")
 
     def validate(self) -> None:
+        if self.base_grid and self.base != "grid":
+            raise ValueError(f"base_grid = {self.base_grid!r} needs base = 'grid'")
         try:
             parse_layers(self.layers)
             check_grid((self.ny, self.nx), "water.surface")

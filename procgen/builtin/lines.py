@@ -90,16 +90,16 @@ class LoadLines(RuleBase):
             raise ValueError(str(exc)) from None
 
     def read(self, base_dir: Path | None) -> Polylines:
-        path = resolve_data_path(self.file, base_dir, self.name)
+        path = resolve_data_path(self.file, base_dir)
         d = read_svg(path, self.tolerance)
         if self.units == "mm" and d.mm_per_unit is None:
-            raise InputError(f"{self.name}: {path.name}: units = 'mm' but the <svg> has no absolute "
+            raise InputError(f"{path.name}: units = 'mm' but the <svg> has no absolute "
                              "width/height; use units = 'user'")
         k = self.scale * (d.mm_per_unit if self.units == "mm" else 1.0)
         keep = [(p, c) for p, c in d.polylines if c or not self.closed_only]
         if not keep:
             what = "closed path (an outline ending in Z, or a rect/circle/polygon)" if self.closed_only else "path"
-            raise InputError(f"{self.name}: {path.name}: no {what} in the drawing")
+            raise InputError(f"{path.name}: no {what} in the drawing")
         x0, y0, w, h = d.viewbox
         lines = [np.column_stack([(p[:, 0] - x0) * k, (y0 + h - p[:, 1]) * k]) for p, _ in keep]
         return Polylines.from_list(lines, closed=[c for _, c in keep], bounds=(0.0, w * k, 0.0, h * k))

@@ -34,7 +34,7 @@ from ..state import State
 SAMPLE_HEIGHTMAP = "data/mesa-png16.png"
 
 
-def resolve_data_path(path: str, base_dir: Path | None, who: str) -> Path:
+def resolve_data_path(path: str, base_dir: Path | None) -> Path:
     """Absolute path, relative to the recipe's folder or the working folder, or a file shipped
     under the built-in rules folder (``data/...``)."""
     p = Path(path).expanduser()
@@ -43,7 +43,7 @@ def resolve_data_path(path: str, base_dir: Path | None, who: str) -> Path:
     for c in candidates:
         if c.is_file():
             return c
-    raise InputError(f"{who}: file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
+    raise InputError(f"file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
 
 
 def resample(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -147,7 +147,7 @@ class LoadGrid(RuleBase):
 
     def _probe(self, base_dir: Path | None) -> RasterInfo:
         try:
-            return probe_raster(resolve_data_path(self.file, base_dir, self.name))
+            return probe_raster(resolve_data_path(self.file, base_dir))
         except InputError as exc:
             raise ValueError(str(exc)) from None
 
@@ -157,7 +157,7 @@ class LoadGrid(RuleBase):
         return int(8 * 6 * (rows * cols + out))
 
     def step(self, state: State) -> bool:
-        r = read_raster(resolve_data_path(self.file, state.base_dir, self.name), self.band)
+        r = read_raster(resolve_data_path(self.file, state.base_dir), self.band)
         grid = self.build(r)
         state.add_domain(self.grid, grid)
         state.report(f"{self.grid}.loaded", {"file": r.info.path.name, "shape": list(grid.shape),
@@ -169,10 +169,10 @@ class LoadGrid(RuleBase):
         """The Grid the raster describes (heights scaled, nodata filled, resampled)."""
         name = r.info.path.name
         if not r.valid.any():
-            raise InputError(f"{self.name}: {name}: every cell is nodata")
+            raise InputError(f"{name}: every cell is nodata")
         side = r.sidecar or {}
         if side and list(side["shape"]) != list(r.info.shape):
-            raise InputError(f"{self.name}: {name}: sidecar shape {side['shape']} does not match the "
+            raise InputError(f"{name}: sidecar shape {side['shape']} does not match the "
                              f"image {list(r.info.shape)}; remove the stale .json")
         h = r.values
         if r.info.max_value is not None:
@@ -199,12 +199,13 @@ class LoadGrid(RuleBase):
         try:
             shape, s = target_shape(rows, cols, cols * dx, rows * dy, self.nx, self.ny, square)
         except ValueError as exc:
-            raise InputError(f"{self.name}: {name}: {exc}") from None
+            raise InputError(f"{name}: {exc}") from None
         # whole cells cannot always cover the extent exactly: map the grid onto the file's footprint
         sx, sy = cols * dx / (shape[1] * s), rows * dy / (shape[0] * s)
         to_crs = to_crs @ np.array([[sx, 0.0, x0 - sx * x0], [0.0, sy, y0 - sy * y0], [0.0, 0.0, 1.0]])
         h = resample(fill_nearest(h, r.valid), shape)
-        missing = resample((~r.valid).astype(np.float64), shape) > 0.5
+        missing = resample((~r.valid).astype(np.float64), shape) > 0.5 if not r.valid.all() \
+            else np.zeros(shape, bool)
         g = Grid(shape, s, (x0, y0))
         g.add_field("surface__height", np.flipud(h), at="cell", units="length", doc=f"height from {name}")
         g.add_field("surface__nodata", np.flipud(missing).astype(np.float64), at="cell", units="1",
@@ -234,7 +235,7 @@ class _ImageFieldParams(RuleBase):
 
     def validate(self) -> None:
         try:
-            info = probe_raster(resolve_data_path(self.file, self.recipe_dir, self.name))
+            info = probe_raster(resolve_data_path(self.file, self.recipe_dir))
         except InputError as exc:
             raise ValueError(str(exc)) from None
         if info.format == "geotiff":
@@ -244,7 +245,7 @@ class _ImageFieldParams(RuleBase):
 
     def image(self, state: State) -> tuple[np.ndarray, np.ndarray, str]:
         """(values scaled to [vmin, vmax], north-up; valid mask; file name)."""
-        r = read_raster(resolve_data_path(self.file, state.base_dir, self.name))
+        r = read_raster(resolve_data_path(self.file, state.base_dir))
         v = r.values / (r.info.max_value or 1.0)
         v = _grey(v) if self.channels == "grey" else v
         return self.vmin + v * (self.vmax - self.vmin), r.valid, r.info.path.name
@@ -320,11 +321,11 @@ class MeshImageField(_ImageFieldParams):
             axes = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}[self.projection]
             v = m.vertices[:, axes] if m.vertices.shape[1] > max(axes) else None
             if v is None:
-                raise InputError(f"{self.name}: projection {self.projection!r} needs 3-D vertices")
+                raise InputError(f"projection {self.projection!r} needs 3-D vertices")
             lo, span = v.min(axis=0), np.ptp(v, axis=0)
             return (v - lo) / np.where(span > 0, span, 1.0)
         if self.uv_field not in m:
-            raise InputError(f"{self.name}: mesh {self.mesh!r} has no UV field {self.uv_field!r}; "
+            raise InputError(f"mesh {self.mesh!r} has no UV field {self.uv_field!r}; "
                              "use a planar projection ('xy', 'xz', 'yz')")
         return np.asarray(m[self.uv_field], np.float64)
 
