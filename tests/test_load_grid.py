@@ -59,16 +59,21 @@ def test_8bit_png_without_sidecar_scales_black_to_white_and_north_is_the_top_row
     assert np.allclose(h[:, 0], -10.0 + 51 / 255 * 50.0) and np.all(h[:-1, 1:] == -10.0)
 
 
-def test_nodata_cells_are_filled_from_the_nearest_data_and_marked(host, tmp_path):
-    a = np.arange(12 * 16, dtype=float).reshape(12, 16)
-    a[3:5, 6:9] = np.nan
+def test_nodata_holes_are_filled_by_interpolation_and_marked(host, tmp_path):
+    a = np.add.outer(16.0 * np.arange(12), 0.5 * np.arange(16))     # a plane: interpolation is exact
+    truth = a.copy()
+    a[3:6, 6:10] = np.nan                                             # an inner hole
+    a[9:, :2] = np.nan                                                # a hole at a corner
+    a[0, :] = np.nan                                                  # a whole edge row
     np.save(tmp_path / "d.npy", a)
     got = _load(host, tmp_path, file="d.npy")
     h, nd = np.flipud(got["surface__height"]), np.flipud(got["surface__nodata"])
     assert np.array_equal(nd == 1, np.isnan(a))
     assert np.array_equal(h[~np.isnan(a)], a[~np.isnan(a)])
-    # (3, 6) nearest data: (2, 6) above or (3, 5) left, both one cell away
-    assert h[3, 6] in (a[2, 6], a[3, 5]) and h[4, 7] == a[5, 7]
+    np.testing.assert_allclose(h[3:6, 6:10], truth[3:6, 6:10], atol=1e-9)
+    corner = h[9:, :2]                                                # partly outside the rim's hull
+    assert np.all((corner >= np.nanmin(a[8:, :3])) & (corner <= np.nanmax(a[8:, :3])))
+    assert np.array_equal(h[0], h[1])                                 # beyond the rim's hull: nearest
 
 
 def test_resampling_keeps_extent_square_cells_and_a_linear_ramp(host, tmp_path):

@@ -7,9 +7,10 @@ one line naming the file before anything runs. Reading is procgen.exchange.raste
 
 Conventions: a Grid's row 0 is its south edge (smallest y) while images and DEMs store the
 north row first, so rasters are flipped on the way in (and the exporters flip them back).
-Nodata cells (GeoTIFF nodata, NaN in NPY, transparent pixels) are *filled* with the height of
-the nearest cell that has data, so every rule sees finite heights, and *marked* in the cell
-field ``surface__nodata`` (1 = no data in the file) so outputs can mask them again.
+Nodata cells (GeoTIFF nodata, NaN in NPY, transparent pixels) are *filled* by linear
+interpolation from the cells around each hole, so every rule sees finite, smooth heights, and
+*marked* in the cell field ``surface__nodata`` (1 = no data in the file) so outputs can mask
+them again.
 """
 from __future__ import annotations
 
@@ -64,12 +65,29 @@ def resample(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return out[: shape[0], : shape[1]]
 
 
-def fill_nearest(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Every invalid cell takes the value of the nearest valid cell (Euclidean, in cells)."""
+def fill_nodata(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Holes filled by linear interpolation from the cells on their rim (scipy's Delaunay-based
+    griddata), so a filled lake or cloud gap is a smooth surface, not nearest-cell terraces;
+    cells outside the rim's convex hull (a hole touching the edge) take the nearest rim value."""
     if valid.all():
         return values
-    idx = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
-    return values[tuple(idx)]
+    from scipy.interpolate import griddata
+    from scipy.spatial import QhullError
+
+    rim = valid & ndimage.binary_dilation(~valid, structure=np.ones((3, 3), bool))
+    holes = np.nonzero(~valid)
+    pts = np.column_stack(np.nonzero(rim)).astype(np.float64)
+    at = np.column_stack(holes).astype(np.float64)
+    out = values.copy()
+    try:
+        fill = griddata(pts, values[rim], at, method="linear")
+    except QhullError:             # a rim in one line (a hole along a whole edge): no triangles
+        fill = np.full(len(at), np.nan)
+    gap = ~np.isfinite(fill)
+    if gap.any():
+        fill[gap] = griddata(pts, values[rim], at[gap], method="nearest")
+    out[holes] = fill
+    return out
 
 
 def target_shape(rows: int, cols: int, width: float, height: float, nx: int, ny: int,
@@ -106,8 +124,8 @@ class LoadGrid(RuleBase):
     beside it (within one 16-bit quantisation step). A GeoTIFF (extra ``geo``) gives cell size,
     origin, CRS, scale/offset and nodata; the CRS is kept in the domain field ``geo__crs`` and the
     map from grid to CRS coordinates in ``geo__to_crs`` so the ``geotiff`` exporter writes the
-    result back in place. Nodata cells are filled from the nearest data and marked in
-    ``surface__nodata``.
+    result back in place. Nodata cells are filled by interpolation from the data around them and
+    marked in ``surface__nodata``.
     """
 
     name: ClassVar[str] = "grid.load"
@@ -203,7 +221,7 @@ class LoadGrid(RuleBase):
         # whole cells cannot always cover the extent exactly: map the grid onto the file's footprint
         sx, sy = cols * dx / (shape[1] * s), rows * dy / (shape[0] * s)
         to_crs = to_crs @ np.array([[sx, 0.0, x0 - sx * x0], [0.0, sy, y0 - sy * y0], [0.0, 0.0, 1.0]])
-        h = resample(fill_nearest(h, r.valid), shape)
+        h = resample(fill_nodata(h, r.valid), shape)
         missing = resample((~r.valid).astype(np.float64), shape) > 0.5 if not r.valid.all() \
             else np.zeros(shape, bool)
         g = Grid(shape, s, (x0, y0))
