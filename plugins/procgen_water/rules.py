@@ -29,11 +29,14 @@ class MultiLayerSurface(RuleBase):
     Each layer has a material (preset name and/or properties: see procgen.materials) and a
     thickness map: nominal thickness + midpoint-displacement noise (Hurst exponent) smoothed by
     the smoothness coefficient, restricted to a coverage / rect / spots mask (thesis 2.4.1).
+    ``base = 'grid'`` lays the layers on a Grid an earlier step made (grid.load: a heightmap,
+    a DEM), keeping its shape, spacing, origin and other fields.
     """
 
     name: ClassVar[str] = "water.surface"
     example: ClassVar[tuple[dict, ...]] = _SMALL
     creates: ClassVar[dict[str, str]] = {SURF: "Grid", "{grid}_materials": "PointSet"}
+    passes_fields: ClassVar[dict[str, str]] = {SURF: "{base_grid}"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("surface__base", SURF, "cell", "out", units="length", doc="substrate height"),
         FieldSpec("surface__thickness", SURF, "cell", "out", units="length", doc="thickness per layer"),
@@ -49,13 +52,16 @@ class MultiLayerSurface(RuleBase):
     spacing: float = param(1.0, gt=0.0, units="length", doc="cell size")
     layers: list[Any] = param(_DEFAULT_LAYERS, doc="layers bottom first: preset names or tables "
                               "(material keys + thickness, noise, hurst, smoothness, coverage, rect, spots...)")
-    base: str = param("flat", choices=("flat", "tilt", "fbm", "mountain"), doc="substrate relief")
+    base: str = param("flat", choices=("flat", "tilt", "fbm", "mountain", "grid"), doc="substrate relief")
+    base_grid: str = param("", doc="base = 'grid': the Grid whose surface__height is the substrate ('' = 'grid')")
     base_amplitude: float = param(0.0, ge=0.0, units="length", doc="height of fbm/mountain relief")
     base_hurst: float = param(0.8, gt=0.0, le=1.0, doc="Hurst exponent of the base relief")
     base_smoothness: float = param(1.0, ge=0.0, units="cells", doc="Gaussian blur of the base relief")
     tilt_deg: float = param(0.0, ge=0.0, lt=89.0, units="deg", doc="tilt of the base (high at max y)")
 
     def validate(self) -> None:
+        if self.base_grid and self.base != "grid":
+            raise ValueError(f"base_grid = {self.base_grid!r} needs base = 'grid'")
         try:
             parse_layers(self.layers)
             check_grid((self.ny, self.nx), "water.surface")
@@ -65,20 +71,34 @@ class MultiLayerSurface(RuleBase):
     def memory_estimate(self) -> int:
         return int(self.nx * self.ny * 8 * (12 + 8 * len(self.layers)))
 
+    def check_chain(self, earlier: list[RuleBase]) -> None:
+        src = self.base_grid or self.grid
+        if self.base == "grid" and not any(src in r.domains_created() for r in earlier):
+            raise ValueError(f"base = 'grid' needs a Grid {src!r} made by an earlier step (grid.load)")
+
     def step(self, state: State) -> bool:
         table, geos = parse_layers(self.layers)
         rng = state.rng()
-        shape = (self.ny, self.nx)
-        base = base_surface(self.base, shape, self.spacing, rng, amplitude=self.base_amplitude,
-                            hurst=self.base_hurst, smoothness=self.base_smoothness, tilt_deg=self.tilt_deg)
+        src = state.get(self.base_grid or self.grid, Grid) if self.base == "grid" else None
+        if src is not None:
+            shape, spacing, origin = src.shape, src.spacing, src.origin
+            check_grid(shape, "water.surface")
+            base = np.array(src["surface__height"], np.float64)
+        else:
+            shape, spacing, origin = (self.ny, self.nx), self.spacing, (0.0, 0.0)
+            base = base_surface(self.base, shape, self.spacing, rng, amplitude=self.base_amplitude,
+                                hurst=self.base_hurst, smoothness=self.base_smoothness, tilt_deg=self.tilt_deg)
         t = np.stack([layer_thickness(geo, shape, rng) for geo in geos], axis=-1)
-        g = Grid(shape, self.spacing, layers=table.names)
+        g = Grid(shape, spacing, origin, layers=table.names)
+        for name, arr, info in (src.fields() if src is not None else ()):
+            if name not in {spec.name for spec in self.fields}:
+                g.add_field(name, arr.copy(), at=info.at, units=info.units, doc=info.doc)
         g.add_field("surface__base", base, at="cell", units="length", doc="substrate height")
         g.add_field("surface__thickness", t, at="cell", units="length", doc="thickness per layer")
         state.add_domain(self.grid, g)
         store_table(state, self.grid, table)
         ensure_water_fields(g)
-        g["sediment__baseline"] = t.sum(axis=-1) * self.spacing ** 2
+        g["sediment__baseline"] = t.sum(axis=-1) * spacing ** 2
         _, s, _ = surface_view(state, self.grid)
         update_derived(g, s, table)
         return True
