@@ -35,6 +35,21 @@ HALF_STENCIL = STENCIL[1:][[tuple(o) > (0, 0, 0) for o in STENCIL[1:]]]
 CHUNK_PAIRS = 4_000_000
 
 
+def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sorted unique rows, first index of each, row of every input) of an integer array.
+
+    A lexsort and one pass: much faster than ``np.unique(axis=0)`` on millions of rows.
+    """
+    a = np.asarray(a)
+    order = np.lexsort(a.T[::-1])
+    sa = a[order]
+    first = np.ones(len(a), bool)
+    first[1:] = np.any(sa[1:] != sa[:-1], axis=1)
+    inverse = np.empty(len(a), np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return sa[first], order[first], inverse
+
+
 def box_keys(points: np.ndarray, size: float) -> np.ndarray:
     """Integer box index (floor(p / bs)) of every point; negative indices are ordinary."""
     return np.floor(np.asarray(points, float) / size).astype(np.int64)
@@ -68,8 +83,8 @@ class BoxIndex:
 
     @classmethod
     def from_keys(cls, cell_keys: np.ndarray, size: float) -> "BoxIndex":
-        keys, cell_box = np.unique(cell_keys.reshape(-1, 3), axis=0, return_inverse=True)
-        return cls.assemble(size, keys, cell_box.ravel())
+        keys, _, cell_box = unique_rows(cell_keys.reshape(-1, 3))
+        return cls.assemble(size, keys, cell_box)
 
     @classmethod
     def assemble(cls, size: float, keys: np.ndarray, cell_box: np.ndarray) -> "BoxIndex":
@@ -137,7 +152,7 @@ class BoxIndex:
         stay[movers] = False
         occupied = np.bincount(self.cell_box[stay], minlength=self.n_boxes) > 0
         mk = new_keys[movers]
-        keys = np.unique(np.concatenate([self.keys[occupied], mk]), axis=0)
+        keys = unique_rows(np.concatenate([self.keys[occupied], mk]))[0]
         skeleton = BoxIndex(self.size, keys, np.zeros(1, np.int64), np.zeros(0, np.int64),
                             np.zeros(0, np.int64))
         renumber = np.full(self.n_boxes, -1, np.int64)
@@ -230,7 +245,12 @@ def canonical_links(pairs: np.ndarray) -> np.ndarray:
     p = np.asarray(pairs, np.int64).reshape(-1, 2)
     p = np.column_stack([p.min(axis=1), p.max(axis=1)])
     p = p[p[:, 0] != p[:, 1]]
-    return np.unique(p, axis=0) if len(p) else p
+    if len(p) == 0:
+        return p
+    n = int(p.max()) + 1
+    key = np.sort(p[:, 0] * n + p[:, 1])         # one int64 per pair: sorts as (i, j)
+    key = key[np.concatenate([[True], key[1:] != key[:-1]])]
+    return np.column_stack([key // n, key % n])
 
 
 def pairs_kdtree(points: np.ndarray, radius: float) -> np.ndarray:

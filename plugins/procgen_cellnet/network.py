@@ -100,6 +100,10 @@ class CellNetwork(Domain):
     def degree(self) -> np.ndarray:
         return np.diff(self.csr[0])
 
+    def cell_centres(self) -> np.ndarray:
+        """(n, 3) cell positions (the CA layer's seed_points are matched against these)."""
+        return self.positions
+
     def normals(self) -> np.ndarray:
         """``cell__normal`` if set, else +z for every cell."""
         if "cell__normal" in self:

@@ -10,5 +10,22 @@ from . import network as _network  # noqa: F401  (registers the CellNetwork doma
 
 @hookimpl
 def procgen_register_rules():
+    from .activation import ActivatorInhibitor
     from .build import CellLinking, CellSeeding, PolygonMesh
-    return [PolygonMesh, CellSeeding, CellLinking]
+    from .colour import ColorSpreading, LabelColors, RandomColorSeeds, StateSetting
+    from .corrosion import CorrosionCountdown
+    from .cracks import CrackDerivative
+    from .harmonize import LinkPruning, NetworkHarmonization
+    from .melting import MeltingAverage
+    from .views import BoxCubes, BoxSearchRoles, CellRaster, ForceCurve, NetworkLines
+    from .watercolour import WatercolorBrush, WatercolorFlow
+    return [PolygonMesh, CellSeeding, CellLinking, NetworkHarmonization, LinkPruning, StateSetting,
+            RandomColorSeeds, LabelColors, ColorSpreading, CrackDerivative, CorrosionCountdown,
+            MeltingAverage, WatercolorBrush, WatercolorFlow, ActivatorInhibitor, NetworkLines,
+            BoxCubes, BoxSearchRoles, ForceCurve, CellRaster]
+
+
+@hookimpl
+def procgen_register_exporters():
+    from .exporters import EXPORTERS
+    return list(EXPORTERS)

@@ -22,6 +22,7 @@ import numpy as np
 
 from procgen import InputError
 
+from .boxes import unique_rows
 from .network import tangent_frames
 
 GRIDS = ("square4", "square8", "triangle", "hexagon", "random")
@@ -80,8 +81,7 @@ def plane_regions(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, 
     d = np.einsum("ij,ij->i", n, v[f[:, 0]])
     scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
     key = np.column_stack([np.round(n / _NORMAL_TOL), np.round(d / (scale * _OFFSET_TOL))])
-    _, region = np.unique(key.astype(np.int64), axis=0, return_inverse=True)
-    region = region.ravel()
+    region = unique_rows(key.astype(np.int64))[2]
     acc = np.zeros((region.max() + 1, 3))
     np.add.at(acc, region, n * area2[:, None])
     rn = acc / np.linalg.norm(acc, axis=1, keepdims=True)
@@ -147,7 +147,7 @@ def _lattice_cells(v: np.ndarray, f: np.ndarray, region: np.ndarray, frames: tup
     ids_a, face_a = np.concatenate(ids), np.concatenate(face)
     # sorted by (region, i, j, site): the order, and so which duplicate a merge keeps, does
     # not depend on how the planes were cut into faces
-    uniq, first = np.unique(ids_a, axis=0, return_index=True)
+    uniq, first, _ = unique_rows(ids_a)
     return uniq, face_a[first]
 
 

@@ -19,7 +19,10 @@ STATE_NAMES = ("sleeping", "receiving", "influencing", "active", "transparent")
 
 STATE_FIELD = "cell__state"
 MATERIAL_FIELD = "cell__material"
-LABEL_FIELD = "cell__label"
+#: region labels 1..s (0 = none), as the generic ca.voronoi writes them
+LABEL_FIELD = "voronoi__label"
+#: cells that exist (the CA layer skips the others): every cell but the TRANSPARENT ones
+PRESENT_FIELD = "cell__alive"
 
 
 def states(net) -> np.ndarray:
@@ -58,5 +61,8 @@ def gates(net, materials: list[int] | None = None, labels: list[int] | None = No
 
 
 def put_states(net, gs: np.ndarray) -> None:
-    net.add_field(STATE_FIELD, np.asarray(gs, np.int8), at="cell",
+    """Write ``cell__state`` and ``cell__alive`` (False for TRANSPARENT: holes for every CA)."""
+    gs = np.asarray(gs, np.int8)
+    net.add_field(STATE_FIELD, gs, at="cell",
                   doc="general state: 0 sleeping, 1 receiving, 2 influencing, 3 active, 4 transparent")
+    net.add_field(PRESENT_FIELD, gs != TRANSPARENT, at="cell", doc="cell exists (not transparent)")
