@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 
 from procgen_surface.domain import SurfaceCells
 from procgen.ca.graph import grid_graph, weighted_top_k, pick_one_per_row
-from procgen_surface.voronoi import P_DIAGONAL, VoronoiGrowth, place_seeds
+from procgen.ca.propagation import P_DIAGONAL, VoronoiGrowth, place_seeds
 
 
 def grow_one(n: int, p: float, r: int, seed: int = 0) -> np.ndarray:
