@@ -96,6 +96,8 @@ class CellSeeding(RuleBase):
     normals: str = param("face", choices=("face", "vertex"), doc="per-face or interpolated normals")
     equal_density: bool = param(False, doc="rescale the bond so every grid has cs^2 per cell "
                                 "(Figure 6: about the same cell count for every grid)")
+    skip_faces: list[int] | None = param(None, doc="faces left without cells (Figure 10: the "
+                                         "bunny with one triangle missing)")
 
     def validate(self) -> None:
         if self.cs is None and self.target_cells is None:
@@ -116,6 +118,16 @@ class CellSeeding(RuleBase):
         mesh = state.get(self.mesh, TriMesh)
         if mesh.vertices.shape[1] != 3:
             raise InputError(f"{self.name}: mesh {self.mesh!r} is 2-D; cells need 3-D polygons")
+        if self.skip_faces:
+            bad = [f for f in self.skip_faces if not 0 <= f < mesh.n_faces]
+            if bad:
+                raise InputError(f"{self.name}: skip_faces {bad} not in 0..{mesh.n_faces - 1}")
+            keep = np.setdiff1d(np.arange(mesh.n_faces), self.skip_faces)
+            sub = TriMesh(mesh.vertices, mesh.faces[keep])
+            for name, arr, info in mesh.fields():
+                if info.at == "face":
+                    sub.add_field(name, arr[keep], at="face", doc=info.doc)
+            mesh = sub
         cs = self.cell_size(mesh)
         s = seed_cells(mesh.vertices, mesh.faces, self.grid, cs, normals=self.normals,
                        rng=state.rng(), vertex_normals=mesh.vertex_normals,

@@ -51,7 +51,7 @@ class CellRule(RuleBase):
 
 def adjacency(net: CellNetwork) -> sp.csr_matrix:
     """Symmetric n x n 0/1 link matrix: ``A @ x`` sums x over every cell's linked neighbours."""
-    return net.graph.matrix
+    return net.matrix
 
 
 def neighbour_sum(net: CellNetwork, values: np.ndarray, send: np.ndarray) -> np.ndarray:

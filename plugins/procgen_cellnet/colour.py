@@ -135,6 +135,46 @@ class LabelColors(CellRule):
         return True
 
 
+@dataclass(kw_only=True)
+class ColorFromField(CellRule):
+    """Colour the selected cells from a bool or integer cell field (alive/dead, labels).
+
+    Maps a CA state to a material's colours: mud from the maze rule, lichen from the
+    activator/inhibitor, Life in two tones (Figures 1(j, l), 14).  True / value k takes
+    ``palette[1]`` / ``palette[k % len]``; False / 0 takes ``palette[0]``.
+    """
+
+    name: ClassVar[str] = "cellnet.color_by"
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("{field}", domain="{cells}", at="cell", intent="in", doc="bool or integer state"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", doc="RGB colour"),
+        FieldSpec(COLORED, domain="{cells}", at="cell", intent="out", doc="colour is not null"),
+    )
+    example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
+        {"rule": "ca.life", "iterations": 2},
+        {"rule": "cellnet.color_by"},)
+
+    field: str = param("ca__alive", doc="bool or integer cell field")
+    palette: list[list[float]] = param([[0.93, 0.91, 0.86], [0.15, 0.15, 0.15]],
+                                       doc="RGB colours in [0, 1]: index 0 for False / 0")
+
+    def validate(self) -> None:
+        check_palette(self.palette)
+
+    def step(self, state: State) -> bool:
+        net = state.get(self.cells, CellNetwork)
+        _, update = self.gates(net)
+        a = np.asarray(net[self.field])
+        if a.ndim != 1 or not (a.dtype == bool or np.issubdtype(a.dtype, np.integer)):
+            raise InputError(f"{self.name}: field {self.field!r} must be one bool or integer per cell")
+        pal = np.asarray(self.palette, np.float32)
+        color, colored = (x.copy() for x in colours(net))
+        color[update] = pal[np.mod(a.astype(np.int64), len(pal))][update]
+        colored[update] = True
+        put_colours(net, color, colored)
+        return True
+
+
 def check_palette(palette: list[list[float]] | None) -> None:
     if palette is not None and (not palette or any(len(c) != 3 or min(c) < 0 or max(c) > 1
                                                    for c in palette)):

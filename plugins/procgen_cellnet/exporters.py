@@ -5,7 +5,8 @@ file equivalent is one small hexagon per cell in its tangent plane (radius ``spl
 wound counter-clockwise about the normal) with the cell's colour on its vertices; TRANSPARENT
 cells (corroded holes) are left out.  Colours come from any field: an (n, 3) RGB field, a
 bool field (two colours), an integer field (one colour per value), a scalar (colour map),
-``normal`` (rgb = (n + 1)/2, Figure 10(c)'s "rgb normals") or ``humidity`` (Figure 13(a)).
+``normal`` (rgb = (n + 1)/2, Figure 10(c)'s "rgb normals"), ``degree`` (links per cell, one
+colour per count) or ``humidity`` (Figure 13(a)).
 """
 from __future__ import annotations
 
@@ -41,6 +42,8 @@ def cell_rgb(net: CellNetwork, color_by: str, p_sat: float = 0.5,
     """(n, 3) colours in [0, 1] of every cell from ``color_by`` (see the module docstring)."""
     if color_by == "normal":
         return (net.normals() + 1) / 2
+    if color_by == "degree":
+        return PALETTE[np.mod(net.degree, len(PALETTE))]
     if color_by == "humidity":
         if WATER not in net:
             raise InputError(f"cellnet export: color_by 'humidity' needs {WATER!r}")
@@ -66,12 +69,12 @@ def cell_rgb(net: CellNetwork, color_by: str, p_sat: float = 0.5,
     return to_rgb8(v[:, None], cmap=cmap).reshape(-1, 3) / 255.0
 
 
-def splat_mesh(net: CellNetwork, rgb: np.ndarray, splat: float = 0.6) -> TriMesh:
+def splat_mesh(net: CellNetwork, rgb: np.ndarray, splat: float = 0.8) -> TriMesh:
     """One hexagon of radius ``splat`` cs per present cell, CCW about its normal, coloured."""
     keep = states(net) != TRANSPARENT
     p, n, c = net.positions[keep], net.normals()[keep], rgb[keep]
     u, w = tangent_frames(n)
-    ang = np.arange(6) * np.pi / 3
+    ang = (np.arange(6) + 0.5) * np.pi / 3          # flat side along u: tiles a triangle lattice
     r = splat * net.cs
     corners = p[:, None, :] + r * (np.cos(ang)[None, :, None] * u[:, None, :]
                                    + np.sin(ang)[None, :, None] * w[:, None, :])
@@ -92,21 +95,21 @@ def _splats(domain: Any, fmt: str, color_by: str, splat: float, p_sat: float) ->
 
 
 def cellnet_obj(domain: Any, *, stem: str, provenance: dict | None = None,
-                color_by: str = "cell__color", splat: float = 0.6, p_sat: float = 0.5) -> dict[str, bytes]:
+                color_by: str = "cell__color", splat: float = 0.8, p_sat: float = 0.5) -> dict[str, bytes]:
     """OBJ with one coloured hexagon splat per cell (transparent cells left out)."""
     mesh = _splats(domain, "cellnet_obj", color_by, splat, p_sat)
     return obj_export(mesh, stem=stem, provenance=provenance, color_field="vertex__color")
 
 
 def cellnet_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                color_by: str = "cell__color", splat: float = 0.6, p_sat: float = 0.5) -> bytes:
+                color_by: str = "cell__color", splat: float = 0.8, p_sat: float = 0.5) -> bytes:
     """Binary glTF of the coloured splats."""
     mesh = _splats(domain, "cellnet_glb", color_by, splat, p_sat)
     return glb_export(mesh, stem=stem, provenance=provenance, color_field="vertex__color")
 
 
 def cellnet_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                color_by: str = "cell__color", splat: float = 0.6, p_sat: float = 0.5,
+                color_by: str = "cell__color", splat: float = 0.8, p_sat: float = 0.5,
                 width: int = 640, height: int = 480, azimuth: float = 35.0, elevation: float = 25.0,
                 up: str = "z", lit: bool = True) -> bytes:
     """The splats seen from a fixed camera (software renderer) as PNG."""

@@ -24,6 +24,7 @@ from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 
 from procgen import Domain, InputError, register_domain_kind
 from procgen.ca.graph import CellGraph
@@ -100,6 +101,13 @@ class CellNetwork(Domain):
     def degree(self) -> np.ndarray:
         return np.diff(self.csr[0])
 
+    @cached_property
+    def matrix(self) -> sp.csr_matrix:
+        """Symmetric n x n 0/1 link matrix: ``A @ x`` sums x over every cell's neighbours."""
+        indptr, indices, _ = self.csr
+        return sp.csr_matrix((np.ones(len(indices)), indices, indptr),
+                             shape=(self.n_cells, self.n_cells))
+
     def cell_centres(self) -> np.ndarray:
         """(n, 3) cell positions (the CA layer's seed_points are matched against these)."""
         return self.positions
@@ -135,9 +143,13 @@ class CellNetwork(Domain):
         return out
 
     def with_positions(self, positions: np.ndarray) -> "CellNetwork":
-        """The same cells and links at new positions; cached box indexes follow the moves."""
+        """The same cells and links at new positions; cached box indexes follow the moves and
+        the link structure (CSR, matrix) is shared."""
         out = self._derived(positions, self.links)
         out._boxes = {s: b.moved(out.positions) for s, b in self._boxes.items()}
+        for name in ("csr", "degree", "matrix"):
+            if name in self.__dict__:
+                out.__dict__[name] = self.__dict__[name]
         return out
 
     def with_links(self, links: np.ndarray, radius: float | None = None) -> "CellNetwork":

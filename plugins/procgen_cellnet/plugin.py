@@ -12,7 +12,8 @@ from . import network as _network  # noqa: F401  (registers the CellNetwork doma
 def procgen_register_rules():
     from .activation import ActivatorInhibitor
     from .build import CellLinking, CellSeeding, PolygonMesh
-    from .colour import ColorSpreading, LabelColors, RandomColorSeeds, StateSetting
+    from .colour import (ColorFromField, ColorSpreading, LabelColors, RandomColorSeeds,
+                         StateSetting)
     from .corrosion import CorrosionCountdown
     from .cracks import CrackDerivative
     from .harmonize import LinkPruning, NetworkHarmonization
@@ -20,7 +21,7 @@ def procgen_register_rules():
     from .views import BoxCubes, BoxSearchRoles, CellRaster, ForceCurve, NetworkLines
     from .watercolour import WatercolorBrush, WatercolorFlow
     return [PolygonMesh, CellSeeding, CellLinking, NetworkHarmonization, LinkPruning, StateSetting,
-            RandomColorSeeds, LabelColors, ColorSpreading, CrackDerivative, CorrosionCountdown,
+            RandomColorSeeds, LabelColors, ColorFromField, ColorSpreading, CrackDerivative, CorrosionCountdown,
             MeltingAverage, WatercolorBrush, WatercolorFlow, ActivatorInhibitor, NetworkLines,
             BoxCubes, BoxSearchRoles, ForceCurve, CellRaster]
 

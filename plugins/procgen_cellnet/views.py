@@ -33,6 +33,9 @@ class NetworkLines(RuleBase):
     name: ClassVar[str] = "cellnet.to_lines"
     uses: ClassVar[dict[str, str]] = {"{cells}": "CellNetwork"}
     creates: ClassVar[dict[str, str]] = {"{lines}": "Polylines"}
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("line__length", domain="{lines}", at="line", intent="out", units="length",
+                  doc="link length"),)
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + ({"rule": "cellnet.to_lines"},)
 
     cells: str = param("cells", doc="CellNetwork to draw")
@@ -58,6 +61,10 @@ class BoxCubes(RuleBase):
     name: ClassVar[str] = "cellnet.to_boxes"
     uses: ClassVar[dict[str, str]] = {"{cells}": "CellNetwork"}
     creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("face__cells", domain="{mesh}", at="face", intent="out", doc="cells in the box"),
+        FieldSpec("vertex__color", domain="{mesh}", at="vertex", intent="out",
+                  doc="box colour by cell count"),)
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + ({"rule": "cellnet.to_boxes"},)
 
     cells: str = param("cells", doc="CellNetwork whose boxes to draw")
@@ -80,9 +87,9 @@ class BoxCubes(RuleBase):
                         8, axis=0)
         mesh.add_field("vertex__color", rgb.astype(np.float32), at="vertex", doc="box colour by cell count")
         state.add_domain(self.mesh, mesh)
-        state.report(f"{self.cells}.n_boxes", idx.n_boxes)
-        state.report(f"{self.cells}.n_x_nodes", len(idx.x_nodes))
-        state.report(f"{self.cells}.n_columns", idx.n_columns)
+        state.report(f"{self.mesh}.n_boxes", idx.n_boxes)
+        state.report(f"{self.mesh}.n_x_nodes", len(idx.x_nodes))
+        state.report(f"{self.mesh}.n_columns", idx.n_columns)
         return False
 
 
@@ -143,7 +150,7 @@ class ForceCurve(RuleBase):
     ri: float = param(1.7320508075688772, gt=1.0, units="cs", doc="link radius r_i")
     dmax: float = param(2.0, gt=0.0, units="cs", doc="release distance (right end)")
     samples: int = param(200, ge=8, le=100_000, doc="points on the curve")
-    scale: float = param(4.0, gt=0.0, doc="vertical exaggeration of F / k")
+    scale: float = param(1.0, gt=0.0, doc="vertical exaggeration of F / k")
 
     def step(self, state: State) -> bool:
         d = np.linspace(0.0, self.dmax, self.samples)

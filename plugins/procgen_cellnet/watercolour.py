@@ -6,7 +6,8 @@ source ("Vc <- Vc + V_kc % p"); the reading kept here: with humidity h = min(p /
 m the mean pigment of the wet, pigmented sending neighbours, Vc <- Vc + mix h (m - Vc).  A dry
 cell (p = 0) never changes colour: the pigment has settled.  A layer (section 5.2: three in
 Figure 13) is a brush that wets a disc or a set of regions with water and pigment, then flows
-until dry; the layer's settled pigment glazes the paper multiplicatively (``paint__color``).
+until dry; the layer's settled pigment glazes the cell colour multiplicatively (``cell__color``,
+white paper where a cell had none).
 Figure 13(a)'s humidity map: blue where p >= p_sat, green shading for p / p_sat.
 """
 from __future__ import annotations
@@ -19,9 +20,10 @@ import numpy as np
 from procgen import FieldSpec, InputError, State, param
 
 from .cellrule import EXAMPLE_NET, CellRule, adjacency, neighbour_sum
+from .colour import COLOR, colours, put_colours
 from .network import CellNetwork
 
-WATER, PIGMENT, LAYER, PAPER = "water__volume", "pigment__color", "paint__layer", "paint__color"
+WATER, PIGMENT, LAYER = "water__volume", "pigment__color", "paint__layer"
 
 
 def flow_step(net, p: np.ndarray, pig: np.ndarray, has: np.ndarray, send: np.ndarray,
@@ -53,7 +55,7 @@ class WatercolorBrush(CellRule):
         FieldSpec(WATER, domain="{cells}", at="cell", intent="out", doc="water amount p"),
         FieldSpec(PIGMENT, domain="{cells}", at="cell", intent="out", doc="pigment in the water"),
         FieldSpec(LAYER, domain="{cells}", at="cell", intent="out", doc="last layer that wetted"),
-        FieldSpec(PAPER, domain="{cells}", at="cell", intent="out", doc="settled glazes (RGB)"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", doc="RGB colour (the paper)"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
         {"rule": "cellnet.paint", "params": {"center": [6.0, 6.0, 0.0], "radius": 3.0}},)
@@ -81,14 +83,16 @@ class WatercolorBrush(CellRule):
         p = _field(net, WATER, np.zeros(net.n_cells))
         pig = _field(net, PIGMENT, np.ones((net.n_cells, 3), np.float32))
         layer = _field(net, LAYER, np.zeros(net.n_cells, np.int8))
-        paper = _field(net, PAPER, np.ones((net.n_cells, 3), np.float32))
+        color, colored = (a.copy() for a in colours(net))
+        blank = update & ~colored
+        color[blank] = 1.0                          # blank selected cells are white paper
         p[hit] = np.maximum(p[hit], self.water)
         pig[hit] = self.color
         layer[hit] = self.layer
         net.add_field(WATER, p, at="cell", doc="water amount p")
         net.add_field(PIGMENT, pig.astype(np.float32), at="cell", doc="pigment carried (RGB)")
         net.add_field(LAYER, layer.astype(np.int8), at="cell", doc="last layer that wetted the cell")
-        net.add_field(PAPER, paper.astype(np.float32), at="cell", doc="settled glazes (RGB)")
+        put_colours(net, color, colored | blank)
         return True
 
 
@@ -101,7 +105,7 @@ class WatercolorFlow(CellRule):
     """Watercolour flow: water diffuses and evaporates; pigment moves with it and settles when dry.
 
     Run ``until = "stable"``: when every cell of the layer is dry, the layer's pigment glazes
-    ``paint__color`` (multiplied in) and the water map is cleared for the next layer.
+    ``cell__color`` (multiplied in) and the pigment map is cleared for the next layer.
     """
 
     name: ClassVar[str] = "cellnet.watercolor"
@@ -110,7 +114,7 @@ class WatercolorFlow(CellRule):
         FieldSpec(WATER, domain="{cells}", at="cell", intent="inout", doc="water amount p"),
         FieldSpec(PIGMENT, domain="{cells}", at="cell", intent="inout", doc="pigment carried"),
         FieldSpec(LAYER, domain="{cells}", at="cell", intent="in", doc="last layer that wetted"),
-        FieldSpec(PAPER, domain="{cells}", at="cell", intent="inout", doc="settled glazes (RGB)"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="inout", doc="RGB colour (the paper)"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
         {"rule": "cellnet.paint", "params": {"center": [6.0, 6.0, 0.0], "radius": 3.0}},
@@ -142,11 +146,10 @@ class WatercolorFlow(CellRule):
     def settle(self, net) -> None:
         """Glaze the dried layer onto the paper (multiply) and clear its pigment."""
         layer = np.asarray(net[LAYER])
-        paper = np.asarray(net[PAPER], np.float32)
+        color, colored = colours(net)
         pig = np.asarray(net[PIGMENT], np.float32)
         wetted = layer > 0
-        paper = np.where(wetted[:, None], paper * pig, paper)
-        net.add_field(PAPER, paper.astype(np.float32), at="cell", doc="settled glazes (RGB)")
+        put_colours(net, np.where(wetted[:, None], color * pig, color), colored)
         net.add_field(LAYER, np.zeros(net.n_cells, np.int8), at="cell",
                       doc="last layer that wetted the cell")
         net.add_field(PIGMENT, np.ones((net.n_cells, 3), np.float32), at="cell",
