@@ -168,7 +168,8 @@ class CellRaster(RuleBase):
     """Converter: a planar network's fields sampled onto a Grid (nearest cell), for PNG / NPY.
 
     The network must lie in a plane z = const.  Every listed cell field is sampled at the
-    nearest cell; pixels farther than a cell from any cell get NaN (or 0 for integer fields).
+    nearest cell; pixels farther than a cell from any cell, or on a transparent cell, get
+    ``fill``.
     """
 
     name: ClassVar[str] = "cellnet.rasterize"
@@ -181,6 +182,12 @@ class CellRaster(RuleBase):
     grid: str = param("raster", doc="name of the Grid to create")
     names: list[str] = param(["cell__color"], doc="cell fields to sample")
     resolution: int = param(512, ge=8, le=8192, doc="pixels along the longer side")
+    fill: float = param(0.0, doc="value of pixels with no cell (away from the network or holes)")
+
+    def field_specs(self) -> list[FieldSpec]:
+        return [FieldSpec(n, domain=self.grid, at="cell", intent="out", doc="sampled cell field")
+                for n in self.names] + [FieldSpec(n, domain=self.cells, at="cell", intent="in",
+                                                  doc="cell field to sample") for n in self.names]
 
     def step(self, state: State) -> bool:
         from scipy.spatial import cKDTree
@@ -201,11 +208,8 @@ class CellRaster(RuleBase):
         for name in self.names:
             a = np.asarray(net[name])
             vals = a[near]
-            if np.issubdtype(vals.dtype, np.floating):
-                vals = vals.astype(np.float64)
-                vals[far | ~keep] = np.nan
-            else:
-                vals = np.where((far | ~keep).reshape((-1,) + (1,) * (vals.ndim - 1)), 0, vals)
+            empty = (far | ~keep).reshape((-1,) + (1,) * (vals.ndim - 1))
+            vals = np.where(empty, np.asarray(self.fill).astype(vals.dtype), vals)
             g.add_field(name, vals.reshape((ny, nx) + a.shape[1:]), at="cell",
                         doc=net.field_info(name).doc)
         state.add_domain(self.grid, g)
