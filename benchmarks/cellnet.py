@@ -58,6 +58,16 @@ def bench(n_target: int, steps: int) -> None:
           f"{(t_index + t_link) / t_kd:.2f}x | CSR graph {t_graph:.2f} s")
     print(f"  network built (seed + index + links + graph) in {build:.2f} s (target < 10 s at 1 M)")
 
+    x = np.random.default_rng(1).random(n)
+    t0 = time.perf_counter()
+    for _ in range(20):
+        net.matrix @ x
+    spmv = (time.perf_counter() - t0) / 20
+    print(f"  baseline: one sparse neighbour sum A @ x takes {spmv * 1e3:.2f} ms "
+          f"({n / spmv / 1e6:.0f} M cells/s); rule steps below are also given in these units")
+    global BASELINE
+    BASELINE = spmv
+
     gs = np.full(n, ACTIVE, np.int8)
     send, update = sends(gs), receives(gs)
     rng = np.random.default_rng(0)
@@ -94,10 +104,14 @@ def bench(n_target: int, steps: int) -> None:
     report("melting (positions + normals, new network per step)", n, steps, time.perf_counter() - t0)
 
 
+BASELINE = 1.0
+
+
 def report(what: str, n: int, steps: int, seconds: float) -> None:
     rate = n * steps / max(seconds, 1e-12)
     print(f"  {what}: {steps / seconds:.1f} steps/s, {rate / 1e6:.1f} M cell updates/s "
-          f"({rate / 1.2e6:.0f}x the paper's ~1.2 M/s)")
+          f"({rate / 1.2e6:.1f}x the paper's ~1.2 M/s; one step = "
+          f"{seconds / steps / BASELINE:.1f} neighbour sums)")
 
 
 def main() -> None:

@@ -16,7 +16,7 @@ import numpy as np
 
 from procgen import FieldSpec, InputError, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule, adjacency, changed, neighbour_sum
+from .cellrule import EXAMPLE_NET, CellRule, adjacency, changed
 from .network import CellNetwork
 from .states import LABEL_FIELD, STATE_NAMES, put_states, selection, states
 
@@ -193,8 +193,8 @@ def spread(net, color: np.ndarray, colored: np.ndarray, send: np.ndarray, update
            literal: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """One synchronous spreading step (Table 1 "Spreading col."): the t + 1 colours."""
     src = send & colored
-    kc = adjacency(net) @ src.astype(float)
-    total = neighbour_sum(net, color, src)
+    both = adjacency(net) @ np.column_stack([color * src[:, None], src])   # one product
+    total, kc = both[:, :3], both[:, 3]
     own = np.where(colored[:, None], color, 0.0)
     mean_self = (own + total) / (kc + 1)[:, None]
     if literal:

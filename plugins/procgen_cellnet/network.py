@@ -93,7 +93,7 @@ class CellNetwork(Domain):
         i = np.concatenate([self.links[:, 0], self.links[:, 1]])
         j = np.concatenate([self.links[:, 1], self.links[:, 0]])
         lid = np.tile(np.arange(self.n_links), 2)
-        order = np.lexsort((j, i))
+        order = np.argsort(i * np.int64(self.n_cells) + j, kind="stable")
         indptr = np.concatenate([[0], np.cumsum(np.bincount(i, minlength=self.n_cells))])
         return indptr.astype(np.int64), j[order], lid[order]
 
