@@ -1,0 +1,80 @@
+"""Regrouping by local activation and long-range inhibition (Young 1984, end of section 5).
+
+The paper names its "regrouping" rule a special case of the activation/inhibition family:
+
+    p_i <- [ h + J1 * sum_{r_ij < R1} p_j + J2 * sum_{R1 <= r_ij < R2} p_j > 0 ]
+
+(the extracted text lost its sums and threshold; p is boolean so the sum is thresholded).  J1 > 0
+activates nearby, J2 < 0 inhibits farther out; R2 reaches beyond the links, so the two rings
+are Euclidean neighbourhoods (scipy's cKDTree, which gives the same pairs as a 27-box search
+with boxes of side R2 and is faster at such radii), the cell itself included in the R1 disc.  Spots and stripes settle in tens of steps.  The majority
+special case (J2 = 0, R1 = the link radius) is the generic ``ca.majority`` rule.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import scipy.sparse as sp
+
+from procgen import FieldSpec, State, param
+
+from .boxes import pairs_kdtree
+from .cellrule import EXAMPLE_NET, CellRule
+
+
+def ring_matrices(net, r1: float, r2: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """(A1, A2): cells closer than r1 (self included) and in [r1, r2), as 0/1 matrices."""
+    pairs = pairs_kdtree(net.positions, r2)
+    d = np.linalg.norm(net.positions[pairs[:, 0]] - net.positions[pairs[:, 1]], axis=1)
+    n = net.n_cells
+
+    def sym(p):
+        i = np.concatenate([p[:, 0], p[:, 1]])
+        j = np.concatenate([p[:, 1], p[:, 0]])
+        return sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
+    inner = pairs[d < r1]
+    return sym(inner) + sp.identity(n, format="csr"), sym(pairs[d >= r1])
+
+
+@dataclass(kw_only=True)
+class ActivatorInhibitor(CellRule):
+    """Young's activator/inhibitor CA on Euclidean rings: spots and stripes (Figure 1(l) lichen)."""
+
+    name: ClassVar[str] = "cellnet.young"
+    default_iterations: ClassVar[int] = 60
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("{field}", domain="{cells}", at="cell", intent="out", doc="activated cells"),)
+    example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
+        {"rule": "cellnet.young", "iterations": 3},)
+
+    field: str = param("ca__alive", doc="bool cell field of activated cells")
+    density: float = param(0.5, ge=0.0, le=1.0, doc="initial share of activated cells (if the field is absent)")
+    h: float = param(0.0, doc="bias")
+    j1: float = param(1.0, doc="activation weight inside R1")
+    j2: float = param(-0.2, doc="inhibition weight between R1 and R2")
+    r1: float = param(2.3, gt=0.0, units="cs", doc="activation radius")
+    r2: float = param(6.0, gt=0.0, units="cs", doc="inhibition radius")
+
+    def validate(self) -> None:
+        if self.r2 <= self.r1:
+            raise ValueError(f"r2 = {self.r2:g} must exceed r1 = {self.r1:g}")
+
+    def setup(self, state: State) -> None:
+        net = self.network(state)
+        self._rings = ring_matrices(net, self.r1 * net.cs, self.r2 * net.cs)
+        if self.field not in net:
+            alive = state.rng().random(net.n_cells) < self.density
+            net.add_field(self.field, alive, at="cell", doc="activated cells")
+
+    def step(self, state: State) -> bool:
+        net = self.network(state)
+        send, update = self.gates(net)
+        p = np.asarray(net[self.field], bool)
+        a1, a2 = self._rings
+        s = (p & send).astype(float)
+        new = (self.h + self.j1 * (a1 @ s) + self.j2 * (a2 @ s)) > 0
+        new = np.where(update, new, p)
+        net.add_field(self.field, new, at="cell", doc="activated cells")
+        return bool(np.any(new != p))

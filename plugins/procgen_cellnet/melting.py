@@ -1,0 +1,59 @@
+"""Melting: every cell moves to the mean of itself and its sending neighbours (Table 1, Figure 12).
+
+Table 1 "Melting-like": v <- (v + sum v_n) / (k + 1) for positions and normals (normals then
+renormalised).  This is umbrella Laplacian smoothing (step k/(k+1)), so small details vanish
+first and the shape shrinks (Figure 12; section 5.2: the last frame after a "nightlong" melt).
+Links stay fixed; the network's box indexes follow the moved cells incrementally.  Sleeping
+cells stay where they are (anchored, partial melting); with all cells active and symmetric
+links, sum (k_i + 1) x_i is conserved (tested).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from procgen import FieldSpec, State, param
+
+from .cellrule import EXAMPLE_NET, CellRule, adjacency
+
+
+def melt_step(net, send: np.ndarray, update: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(positions, normals) at t + 1."""
+    n = net.normals()
+    s = send[:, None]
+    sums = adjacency(net) @ np.column_stack([net.positions * s, n * s, s])   # one product
+    k = sums[:, 6]
+    pos = (net.positions + sums[:, :3]) / (k + 1)[:, None]
+    nn = n + sums[:, 3:6]
+    ln = np.linalg.norm(nn, axis=1, keepdims=True)
+    nn = np.where(ln > 1e-12, nn / np.maximum(ln, 1e-300), n)
+    return (np.where(update[:, None], pos, net.positions), np.where(update[:, None], nn, n))
+
+
+@dataclass(kw_only=True)
+class MeltingAverage(CellRule):
+    """Melting: positions and normals averaged over the cell and its sending neighbours."""
+
+    name: ClassVar[str] = "cellnet.melt"
+    default_iterations: ClassVar[int] = 10
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("cell__normal", domain="{cells}", at="cell", intent="out", doc="unit normal"),)
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 2}},
+        {"rule": "cellnet.seed", "params": {"target_cells": 400}},
+        {"rule": "cellnet.link"},
+        {"rule": "cellnet.melt", "iterations": 3},)
+
+    tol: float = param(1e-9, ge=0.0, units="cs", doc="stable when no cell moves more than this")
+
+    def step(self, state: State) -> bool:
+        net = self.network(state)
+        send, update = self.gates(net)
+        pos, nrm = melt_step(net, send, update)
+        moved = float(np.abs(pos - net.positions).max(initial=0))
+        out = net.with_positions(pos)
+        out.add_field("cell__normal", nrm, at="cell", doc="unit normal")
+        state.add_domain(self.cells, out)
+        return moved > self.tol * net.cs

@@ -1,0 +1,46 @@
+"""Hook implementations that register the cellular-network family and ship its recipes and
+gallery list, as any outside plugin does.
+
+Importing the network module registers the ``CellNetwork`` domain kind as soon as the plugin is
+loaded, so ``State.load`` and the recipe checker know it before any rule runs.
+"""
+from pathlib import Path
+
+from procgen import hookimpl
+from procgen.data import plugin_gallery_lists, plugin_recipe_dirs
+
+from . import network as _network  # noqa: F401  (registers the CellNetwork domain kind)
+
+
+@hookimpl
+def procgen_register_rules():
+    from .activation import ActivatorInhibitor
+    from .build import CellLinking, CellSeeding, PolygonMesh
+    from .colour import (ColorFromField, ColorSpreading, LabelColors, RandomColorSeeds,
+                         StateSetting)
+    from .corrosion import CorrosionCountdown
+    from .cracks import CrackDerivative
+    from .harmonize import LinkPruning, NetworkHarmonization
+    from .melting import MeltingAverage
+    from .views import BoxCubes, BoxSearchRoles, CellRaster, ForceCurve, NetworkLines
+    from .watercolour import WatercolorBrush, WatercolorFlow
+    return [PolygonMesh, CellSeeding, CellLinking, NetworkHarmonization, LinkPruning, StateSetting,
+            RandomColorSeeds, LabelColors, ColorFromField, ColorSpreading, CrackDerivative, CorrosionCountdown,
+            MeltingAverage, WatercolorBrush, WatercolorFlow, ActivatorInhibitor, NetworkLines,
+            BoxCubes, BoxSearchRoles, ForceCurve, CellRaster]
+
+
+@hookimpl
+def procgen_register_exporters():
+    from .exporters import EXPORTERS
+    return list(EXPORTERS)
+
+
+@hookimpl
+def procgen_recipe_dirs():
+    return plugin_recipe_dirs(Path(__file__).parent, "cellnet")
+
+
+@hookimpl
+def procgen_gallery_lists():
+    return plugin_gallery_lists(Path(__file__).parent, "cellnet.toml")
