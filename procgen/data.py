@@ -32,5 +32,12 @@ def plugin_gallery_lists(package_dir: Path, *names: str) -> list[Path]:
     return [base / name for name in names]
 
 
+def builtin_rules_dir() -> Path:
+    """The folder holding the built-in plugin's recipe families (``demo``, ``chains``, ``data``)
+    and the sample files beside them: in the wheel or in the checkout's ``rules/``."""
+    shipped = _PKG / "builtin" / "recipes"
+    return shipped if shipped.is_dir() else SOURCE_ROOT / "rules"
+
+
 def meshes_dir() -> Path:
     return _PKG / "data" / "meshes"
