@@ -21,6 +21,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import functools
 import hashlib
+import itertools
 import json
 import os
 import shutil
@@ -190,13 +191,13 @@ def clean_stale_temps(root: Path) -> None:
                 shutil.rmtree(tmp, ignore_errors=True)
 
 
-def _executor(processes: int, scheduler: Any) -> tuple[cf.Executor | None, int, Callable[[], None]]:
-    """(executor, how many jobs to keep in flight, close) for local processes or a dask cluster."""
+def _executor(processes: int, scheduler: Any) -> tuple[cf.Executor | None, Callable[[], int], Callable[[], None]]:
+    """(executor, how many jobs to keep in flight now, close) for local processes or a dask cluster."""
     if scheduler is None:
         if processes <= 1:
-            return None, 1, lambda: None
+            return None, lambda: 1, lambda: None
         pool = cf.ProcessPoolExecutor(max_workers=processes)
-        return pool, 2 * processes, lambda: pool.shutdown(cancel_futures=True)
+        return pool, lambda: 2 * processes, lambda: pool.shutdown(cancel_futures=True)
     try:
         from dask.distributed import Client
     except ImportError:
@@ -206,14 +207,15 @@ def _executor(processes: int, scheduler: Any) -> tuple[cf.Executor | None, int, 
         client = Client(scheduler, timeout="20s") if own else scheduler
     except (OSError, TimeoutError) as exc:
         raise RecipeError(f"--scheduler {scheduler}: cannot reach the dask scheduler ({exc})") from None
-    threads = sum(client.nthreads().values()) or 1
-    # pure=False: a seed is a new run each time, never a cached result of an earlier one
-    return client.get_executor(pure=False), 2 * threads, (client.close if own else lambda: None)
+    # pure=False: a seed is a new run each time, never a cached result of an earlier one.
+    # The window follows the cluster as workers join or leave.
+    return (client.get_executor(pure=False), lambda: 2 * max(1, sum(client.nthreads().values())),
+            client.close if own else lambda: None)
 
 
-def _outputs(todo: Sequence[tuple[int, Job]], executor: cf.Executor | None, window: int,
+def _outputs(todo: Sequence[tuple[int, Job]], executor: cf.Executor | None, window: Callable[[], int],
              host: "PluginHost") -> Iterator[tuple[int, Job, JobOutput]]:
-    """Each (index, job) with its output, as jobs complete; at most ``window`` in flight."""
+    """Each (index, job) with its output, as jobs complete; at most ``window()`` in flight."""
     if executor is None:
         for i, job in todo:
             yield i, job, compute_job(job, host)
@@ -221,10 +223,9 @@ def _outputs(todo: Sequence[tuple[int, Job]], executor: cf.Executor | None, wind
     waiting = iter(todo)
     inflight: dict[cf.Future, tuple[int, Job]] = {}
     while True:
-        for i, job in waiting:
+        room = window() - len(inflight)
+        for i, job in itertools.islice(waiting, max(0, room)):
             inflight[executor.submit(compute_job, job)] = (i, job)
-            if len(inflight) >= window:
-                break
         if not inflight:
             return
         done, _ = cf.wait(inflight, return_when=cf.FIRST_COMPLETED)

@@ -221,6 +221,25 @@ def test_cluster_failing_job_is_reported_and_others_finish(in_client_dir, capsys
     assert not Path("failing/cmap-nosuchcmap").exists()   # a failed run leaves nothing behind
 
 
+def test_cluster_gallery_takes_the_same_path(in_client_dir, host):
+    import re
+
+    from procgen.gallery import build_gallery
+
+    c = in_client_dir
+    rep = build_gallery(host, only=["demo/*"], quick=True, out_dir=Path("gallery"), scheduler=c.address,
+                        progress=False)
+    assert rep.results and [r.status for r in rep.results] == ["done"] * len(rep.results), rep.summary()
+    if c.mode == "unshare":
+        assert _workers_see(c, Path("gallery")) == [False, False]
+    index = Path("gallery/index.html").read_text()
+    pictures = re.findall(r'<img src="([^"]+)"', index)
+    assert len(pictures) >= 2 * len(rep.results) and all(Path("gallery", p).is_file() for p in pictures)
+    again = build_gallery(host, only=["demo/*"], quick=True, out_dir=Path("gallery"), scheduler=c.address,
+                          progress=False)
+    assert [r.status for r in again.results] == ["skipped"] * len(rep.results)
+
+
 def _die_once(job):
     """Kill the worker process running the first job that gets here; later attempts run normally."""
     from distributed import get_worker
