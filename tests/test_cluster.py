@@ -15,6 +15,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -58,17 +59,18 @@ GRID = ["steps.0.params.radius=0.1,0.2"]
 SEEDS = [1, 2, 3]
 
 
-def _unshare_works(probe: Path) -> bool:
-    """Can this process give a child a private tmpfs (root with CAP_SYS_ADMIN, as in CI)?"""
-    if shutil.which("unshare") is None or shutil.which("mount") is None:
-        return False
-    probe.mkdir()
-    r = subprocess.run(["unshare", "--mount", "sh", "-c", 'mount -t tmpfs procgen-probe "$0"', str(probe)],
-                       capture_output=True, timeout=30)
-    return r.returncode == 0
+def _isolation() -> str:
+    """"unshare" where this process may give children a private tmpfs (root with CAP_SYS_ADMIN, as
+    in CI), else "cwd"."""
+    if os.name != "posix" or os.geteuid() != 0 or not (shutil.which("unshare") and shutil.which("mount")):
+        return "cwd"
+    with tempfile.TemporaryDirectory() as probe:
+        r = subprocess.run(["unshare", "--mount", "sh", "-c", 'mount -t tmpfs procgen-probe "$0"', probe],
+                           capture_output=True, timeout=30)
+    return "unshare" if r.returncode == 0 else "cwd"
 
 
-MODE = "unshare" if os.name == "posix" and os.geteuid() == 0 else "cwd"
+MODE = _isolation()
 
 
 class Cluster:
@@ -76,7 +78,7 @@ class Cluster:
         self.root = root
         self.client_dir = root / "client"          # the client's folder: recipe and outputs
         self.client_dir.mkdir()
-        self.mode = MODE if MODE == "cwd" or _unshare_works(root / "probe") else "cwd"
+        self.mode = MODE
         # the workers' files: inside the hidden tmpfs with unshare, beside the client's otherwise
         self.scratch = self.client_dir / "worker-scratch" if self.mode == "unshare" else root / "workers"
         self.procs: list[subprocess.Popen] = []
