@@ -239,8 +239,7 @@ def _outputs(todo: Sequence[tuple[int, Job]], executor: cf.Executor | None, wind
 
 
 def run_jobs(jobs: Sequence[Job], host: "PluginHost", *, processes: int = 1, scheduler: Any = None,
-             force: bool = False, desc: str = "jobs", progress: bool | None = None,
-             on_result: Callable[[JobResult], None] | None = None) -> list[JobResult]:
+             force: bool = False, desc: str = "jobs", progress: bool | None = None) -> list[JobResult]:
     """Plan, skip what is done, run the rest (``processes`` local processes, or the dask cluster at
     ``scheduler``: an address or a ``Client``), commit each result as it arrives. Results in job order.
 
@@ -274,8 +273,6 @@ def run_jobs(jobs: Sequence[Job], host: "PluginHost", *, processes: int = 1, sch
                     if out.result.status == "done":
                         commit(job, out)
                     results[i] = out.result
-                    if on_result is not None:
-                        on_result(out.result)
                     bar.update(1)
             finally:
                 close()
