@@ -79,6 +79,8 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--out", type=Path, default=None, help="output folder (default gallery/out)")
     g.add_argument("--force", action="store_true", help="re-render entries that are up to date")
     g.add_argument("--list", action="store_true", help="list the entries and exit")
+    g.add_argument("--scheduler", metavar="ADDRESS",
+                   help="render on a dask.distributed cluster (tcp://host:8786); needs the dask extra")
     sw = cmd("sweep", "Run a recipe over a grid of parameter values and seeds; write summary.csv.",
              'procgen sweep clouds/fig-4-3a --grid "steps.2.params.n_c=2,4,8" --seeds 1-100')
     sw.add_argument("recipe")
@@ -190,7 +192,7 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 print(f"{e.slug:<40} {e.figure:<16} {e.title}")
             return 0
         report = build_gallery(host, only=args.only, jobs=args.jobs, quick=args.quick, out_dir=args.out,
-                               force=args.force)
+                               force=args.force, scheduler=args.scheduler)
         print(report.summary())
         return min(len(report.failed), 125)   # the exit code says how many entries failed
     if args.command == "sweep":

@@ -1,25 +1,24 @@
 """The gallery: every plugin's gallery entries rendered in parallel, resumably, into index.html.
 
-Each entry+seed is a job (procgen.jobs): rendered into a temporary folder renamed into place
-when complete, with a stamp holding a provenance hash (recipe after overrides, seed, package
-versions; --quick marks the recipe). A re-run skips entries whose stamp matches, so an
-interrupted run (Ctrl-C, kill -9) resumes without redoing finished work.
+Each entry+seed is a job (procgen.jobs), run in local processes or on a dask.distributed cluster
+exactly as a sweep's runs are: written into a temporary folder renamed into place when complete,
+with a stamp holding a provenance hash (recipe after overrides, seed, package versions; --quick
+marks the recipe). A re-run skips entries whose stamp matches, so an interrupted run (Ctrl-C,
+kill -9) resumes without redoing finished work.
 """
 from __future__ import annotations
 
 import fnmatch
 import html
 import json
-import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import RecipeError
 from .exchange import write
-from .jobs import JobResult, clean_stale_temps, render_job
+from .jobs import Job, JobResult, clean_stale_temps, run_jobs
 from .recipes import list_recipes, parse_toml, rules_missing
 
 if TYPE_CHECKING:
@@ -135,39 +134,25 @@ def _toml_value(v: Any) -> str:
     return repr(v)
 
 
-def _render_entry(entry: Entry, seed: int, out_root: str, quick: bool, force: bool) -> JobResult:
+def entry_job(entry: Entry, seed: int, out_root: Path, quick: bool) -> Job:
+    """The job that renders ``entry`` with ``seed`` into ``out_root/<slug>/seed-<seed>``."""
     overrides = overrides_for(entry, quick) + (["recipe.notes=\"quick\""] if quick else [])
-    return render_job(entry.slug, entry.recipe, overrides, seed,
-                      str(Path(out_root) / entry.slug / f"seed-{seed}"), force)
+    return Job(entry.slug, entry.recipe, tuple(overrides), seed, str(out_root / entry.slug / f"seed-{seed}"))
 
 
 def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: int = 1, quick: bool = False,
-                  out_dir: Path | None = None, force: bool = False, progress: bool | None = None) -> GalleryReport:
-    """Render all (filtered) entries with ``jobs`` processes, then write index.html."""
-    from tqdm import tqdm
-
+                  out_dir: Path | None = None, force: bool = False, progress: bool | None = None,
+                  scheduler: Any = None) -> GalleryReport:
+    """Render all (filtered) entries with ``jobs`` processes, or on the dask cluster at ``scheduler``
+    (an address or a ``dask.distributed.Client``), then write index.html."""
     t0 = time.perf_counter()
     out = Path(out_dir) if out_dir else Path("gallery") / "out"
     out.mkdir(parents=True, exist_ok=True)
     clean_stale_temps(out)
     entries = load_gallery(host, only)
-    jobs_list = [(e, s) for e in entries for s in e.seeds]
-    show = sys.stderr.isatty() if progress is None else progress
-    results: list[JobResult] = []
-    bar = tqdm(total=len(jobs_list), desc="gallery", unit="entry", disable=not show, file=sys.stderr)
-    if jobs <= 1:
-        for e, s in jobs_list:
-            results.append(_render_entry(e, s, str(out), quick, force))
-            bar.update(1)
-    else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futs = [pool.submit(_render_entry, e, s, str(out), quick, force) for e, s in jobs_list]
-            for fut in as_completed(futs):
-                results.append(fut.result())
-                bar.update(1)
-    bar.close()
-    order = {(e.slug, s): i for i, (e, s) in enumerate(jobs_list)}
-    results.sort(key=lambda r: order[(r.key, r.seed)])
+    batch = [entry_job(e, s, out, quick) for e in entries for s in e.seeds]
+    results = run_jobs(batch, host, processes=jobs, scheduler=scheduler, force=force, desc="gallery",
+                       progress=progress)
     write_index(out, entries, results, quick)
     return GalleryReport(out, results, time.perf_counter() - t0)
 

@@ -1,24 +1,44 @@
-"""One unit of batch work (recipe + overrides + seed -> folder), shared by gallery and sweep.
+"""Batch work (recipe + overrides + seed -> folder) run locally or on dask, shared by gallery and sweep.
 
-A job renders into a temporary sibling folder that is renamed into place only when complete,
-with a stamp file holding a provenance hash. A job whose stamp matches is skipped, so a killed
-batch resumes where it stopped. The function is picklable and self-contained, so it runs the
-same in a local process pool and on a dask.distributed worker.
+The split follows who can see the output folder. Only the client is sure to: the machines of a
+dask.distributed cluster often share no filesystem with it. So
+
+- the client plans each job: it loads and checks the recipe, hashes it with the seed and the
+  package versions, and skips a job whose folder holds a stamp with that hash (a finished run is
+  never redone);
+- a worker (a local process or a dask worker on another machine) gets the resolved recipe itself,
+  not a path, renders the run in its own scratch space and hands back the files' bytes;
+- the client commits each result as it arrives: the files into a temporary sibling folder, the
+  stamp last, then one rename. A killed client or worker never leaves a half-written run folder,
+  and a job that dask re-runs after its worker died is written once, when its result arrives.
+
+Results are taken as they complete with a bounded number in flight, so neither the client nor
+the cluster ever holds the whole batch; a failing job becomes a "failed" result with its error
+and the others go on.
 """
 from __future__ import annotations
 
+import concurrent.futures as cf
+import functools
 import hashlib
+import itertools
 import json
 import os
 import shutil
+import sys
+import tempfile
 import time
 import traceback
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from .errors import ProcgenError
+from .errors import ProcgenError, RecipeError
 from .exchange import write
+
+if TYPE_CHECKING:
+    from .plugins import PluginHost
 
 STAMP = ".procgen-done.json"
 
@@ -37,52 +57,130 @@ class JobResult:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class Job:
+    """One run: ``recipe`` (a name or a file on the client) with ``overrides`` and ``seed`` into ``folder``.
+
+    ``plan_job`` fills the rest on the client; those fields are what a worker needs, so it never
+    reads the client's disk.
+    """
+
+    key: str
+    recipe: str
+    overrides: tuple[str, ...]
+    seed: int
+    folder: str
+    data: dict[str, Any] = field(default_factory=dict)   # the recipe after overrides, checked
+    source: str = ""
+    base_dir: str | None = None
+    versions: dict[str, str] = field(default_factory=dict)
+    hash: str = ""
+
+
+@dataclass
+class JobOutput:
+    """What a worker hands back: the result and, when done, every file's bytes."""
+
+    result: JobResult
+    files: dict[str, bytes] = field(default_factory=dict)
+
+
 def job_hash(recipe_data: dict[str, Any], seed: int, versions: dict[str, str]) -> str:
     blob = json.dumps({"recipe": recipe_data, "seed": seed, "versions": versions},
                       sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()
 
 
-def render_job(key: str, recipe_ref: str, overrides: list[str], seed: int, folder: str,
-               force: bool = False) -> JobResult:
-    """Run ``recipe_ref`` with ``overrides`` and ``seed`` into ``folder`` unless already done there."""
-    from .plugins import get_plugin_manager
+def _failed(job: Job, t0: float, exc: BaseException) -> JobResult:
+    if isinstance(exc, ProcgenError):
+        error = " ".join(str(exc).split())
+    else:
+        tb = traceback.extract_tb(exc.__traceback__)
+        where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
+        error = f"{type(exc).__name__}: {' '.join(str(exc).split())}{where}"
+    return JobResult(job.key, job.seed, "failed", time.perf_counter() - t0, error=error)
+
+
+def plan_job(job: Job, host: "PluginHost", loaded: dict[tuple[str, tuple[str, ...]], Any] | None = None) -> Job:
+    """Load and check the job's recipe on the client; fill what a worker needs. Raises ProcgenError.
+
+    ``loaded`` caches recipes by (recipe, overrides): the seeds of a sweep share one.
+    """
     from .recipes import load_recipe
+
+    loaded = {} if loaded is None else loaded
+    if (job.recipe, job.overrides) not in loaded:
+        loaded[job.recipe, job.overrides] = load_recipe(job.recipe, host, list(job.overrides))
+    recipe = loaded[job.recipe, job.overrides]
+    versions = host.versions()
+    return replace(job, data=recipe.data, source=recipe.source,
+                   base_dir=None if recipe.base_dir is None else str(recipe.base_dir),
+                   versions=versions, hash=job_hash(recipe.data, job.seed, versions))
+
+
+def stamp_result(job: Job) -> JobResult | None:
+    """The skipped result when ``job.folder`` already holds this job's finished run."""
+    try:
+        old = json.loads((Path(job.folder) / STAMP).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(old, dict) or old.get("hash") != job.hash:
+        return None
+    return JobResult(job.key, job.seed, "skipped", float(old.get("seconds", 0.0)),
+                     files=old.get("files", []), reports=old.get("reports", {}))
+
+
+@functools.lru_cache(maxsize=1)
+def _worker_host() -> "PluginHost":
+    """One plugin host per worker process (building it loads every entry point)."""
+    from .plugins import get_plugin_manager
+
+    return get_plugin_manager()
+
+
+def compute_job(job: Job, host: "PluginHost | None" = None) -> JobOutput:
+    """Render a planned job in scratch space and return its files' bytes. Runs on a worker.
+
+    Writes nothing the client relies on; any error becomes a "failed" result.
+    """
+    from .recipes import check_recipe
     from .runner import run
 
     t0 = time.perf_counter()
-    final = Path(folder)
     try:
-        host = get_plugin_manager()
-        recipe = load_recipe(recipe_ref, host, overrides)
-        h = job_hash(recipe.data, seed, host.versions())
-        stamp = final / STAMP
-        if not force and stamp.is_file():
-            try:
-                old = json.loads(stamp.read_text())
-                if old.get("hash") == h:
-                    return JobResult(key, seed, "skipped", float(old.get("seconds", 0.0)),
-                                     files=old.get("files", []), reports=old.get("reports", {}))
-            except (OSError, ValueError):
-                pass
-        tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
-        shutil.rmtree(tmp, ignore_errors=True)
-        result = run(recipe, host, seed=seed, out_dir=tmp, progress=False)
-        secs = time.perf_counter() - t0
-        info = {"hash": h, "recipe": recipe_ref, "overrides": overrides, "seed": seed,
-                "seconds": round(secs, 3), "files": sorted(result.files), "reports": result.state.reports}
-        write(tmp / STAMP, json.dumps(info, indent=2, sort_keys=True, default=str))
-        if final.exists():
-            shutil.rmtree(final)
-        os.replace(tmp, final)
-        return JobResult(key, seed, "done", secs, files=sorted(result.files),
-                         reports=json.loads(json.dumps(result.state.reports, default=str)))
-    except ProcgenError as exc:
-        return JobResult(key, seed, "failed", time.perf_counter() - t0, error=" ".join(str(exc).split()))
+        host = host or _worker_host()
+        versions = host.versions()
+        if versions != job.versions:
+            diff = sorted(k for k in {*versions, *job.versions} if versions.get(k) != job.versions.get(k))
+            raise RecipeError("this worker's packages differ from the client's ("
+                              + ", ".join(f"{k}: worker {versions.get(k, 'missing')}, client "
+                                          f"{job.versions.get(k, 'missing')}" for k in diff)
+                              + "); install the same procgen and plugins on every worker")
+        recipe = check_recipe(job.data, host, job.source, None if job.base_dir is None else Path(job.base_dir))
+        with tempfile.TemporaryDirectory(prefix="procgen-job-") as scratch:
+            result = run(recipe, host, seed=job.seed, out_dir=Path(scratch), progress=False)
+            files = {rel: (Path(scratch) / rel).read_bytes() for rel in result.files}
+        reports = json.loads(json.dumps(result.state.reports, default=str))
+        return JobOutput(JobResult(job.key, job.seed, "done", time.perf_counter() - t0,
+                                   files=sorted(files), reports=reports), files)
     except Exception as exc:  # one broken job must not stop the batch
-        tb = traceback.extract_tb(exc.__traceback__)[-1]
-        return JobResult(key, seed, "failed", time.perf_counter() - t0,
-                         error=f"{type(exc).__name__}: {exc} (at {Path(tb.filename).name}:{tb.lineno})")
+        return JobOutput(_failed(job, t0, exc))
+
+
+def commit(job: Job, out: JobOutput) -> None:
+    """Write a done job's files into its folder: temporary sibling, stamp last, one rename."""
+    res = out.result
+    final = Path(job.folder)
+    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    for rel, data in out.files.items():
+        write(tmp / rel, data)
+    info = {"hash": job.hash, "recipe": job.recipe, "overrides": list(job.overrides), "seed": job.seed,
+            "seconds": round(res.seconds, 3), "files": res.files, "reports": res.reports}
+    write(tmp / STAMP, json.dumps(info, indent=2, sort_keys=True, default=str))
+    if final.exists():
+        shutil.rmtree(final)
+    os.replace(tmp, final)
 
 
 def clean_stale_temps(root: Path) -> None:
@@ -91,3 +189,100 @@ def clean_stale_temps(root: Path) -> None:
         for tmp in root.rglob(".tmp-*"):
             if tmp.is_dir():
                 shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _executor(processes: int, scheduler: Any) -> tuple[cf.Executor | None, Callable[[], int], Callable[[], None]]:
+    """(executor, how many jobs to keep in flight now, close) for local processes or a dask cluster."""
+    if scheduler is None:
+        if processes <= 1:
+            return None, lambda: 1, lambda: None
+        pool = cf.ProcessPoolExecutor(max_workers=processes)
+        return pool, lambda: 2 * processes, lambda: pool.shutdown(cancel_futures=True)
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise RecipeError("--scheduler needs the dask extra: pip install 'procgen-rules[dask]'") from None
+    own = isinstance(scheduler, str)
+    try:
+        client = Client(scheduler, timeout="20s") if own else scheduler
+    except (OSError, TimeoutError) as exc:
+        raise RecipeError(f"--scheduler {scheduler}: cannot reach the dask scheduler ({exc})") from None
+    # pure=False: a seed is a new run each time, never a cached result of an earlier one.
+    # The window follows the cluster as workers join or leave.
+    return (client.get_executor(pure=False), lambda: 2 * max(1, sum(client.nthreads().values())),
+            client.close if own else lambda: None)
+
+
+def _outputs(todo: Sequence[tuple[int, Job]], executor: cf.Executor | None, window: Callable[[], int],
+             host: "PluginHost") -> Iterator[tuple[int, Job, JobOutput]]:
+    """Each (index, job) with its output, as jobs complete; at most ``window()`` in flight."""
+    if executor is None:
+        for i, job in todo:
+            yield i, job, compute_job(job, host)
+        return
+    waiting = iter(todo)
+    inflight: dict[cf.Future, tuple[int, Job]] = {}
+    while True:
+        room = window() - len(inflight)
+        for i, job in itertools.islice(waiting, max(0, room)):
+            inflight[executor.submit(compute_job, job)] = (i, job)
+        if not inflight:
+            return
+        done, _ = cf.wait(inflight, return_when=cf.FIRST_COMPLETED)
+        for fut in done:
+            i, job = inflight.pop(fut)
+            try:
+                out = fut.result()
+            except Exception as exc:  # the task itself died: dask gave up on lost workers, unpicklable...
+                out = JobOutput(_failed(job, time.perf_counter(), exc))
+            yield i, job, out
+
+
+def run_jobs(jobs: Sequence[Job], host: "PluginHost", *, processes: int = 1, scheduler: Any = None,
+             force: bool = False, desc: str = "jobs", progress: bool | None = None) -> list[JobResult]:
+    """Plan, skip what is done, run the rest (``processes`` local processes, or the dask cluster at
+    ``scheduler``: an address or a ``Client``), commit each result as it arrives. Results in job order.
+
+    A job whose recipe does not load fails on its own; the others run.
+    """
+    from tqdm import tqdm
+
+    results: dict[int, JobResult] = {}
+    todo: list[tuple[int, Job]] = []
+    loaded: dict[tuple[str, tuple[str, ...]], Any] = {}
+    for i, job in enumerate(jobs):
+        t0 = time.perf_counter()
+        try:
+            planned = plan_job(job, host, loaded)
+        except ProcgenError as exc:
+            results[i] = _failed(job, t0, exc)
+            continue
+        skipped = None if force else stamp_result(planned)
+        if skipped is not None:
+            results[i] = skipped
+        else:
+            todo.append((i, planned))
+    del loaded
+    show = sys.stderr.isatty() if progress is None else progress
+    with tqdm(total=len(jobs), initial=len(results), desc=desc, unit="run", disable=not show,
+              file=sys.stderr) as bar:
+        if todo:
+            executor, window, close = _executor(processes, scheduler)
+            try:
+                for i, job, out in _outputs(todo, executor, window, host):
+                    if out.result.status == "done":
+                        commit(job, out)
+                    results[i] = out.result
+                    bar.update(1)
+            finally:
+                close()
+    return [results[i] for i in range(len(jobs))]
+
+
+def render_job(key: str, recipe_ref: str, overrides: list[str], seed: int, folder: str,
+               force: bool = False) -> JobResult:
+    """One job in this process, resumable like any batch job."""
+    from .plugins import get_plugin_manager
+
+    return run_jobs([Job(key, recipe_ref, tuple(overrides), seed, folder)], get_plugin_manager(),
+                    force=force, progress=False)[0]

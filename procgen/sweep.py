@@ -1,8 +1,9 @@
 """Parameter x seed sweeps: the product of --grid values and seeds, run locally or on dask.
 
-Each run is a resumable job (procgen.jobs). Locally they run in a process pool; with a
-scheduler address they run on a dask.distributed cluster (extra ``dask``; imported only then).
-The summary CSV has a row per run with its parameters, status, time and reported numbers.
+Each run is a resumable job (procgen.jobs): in a local process pool, or with a scheduler address
+on a dask.distributed cluster (extra ``dask``; imported only then) whose workers hand the files
+back to this process, so the cluster needs no filesystem shared with it. The summary CSV has a
+row per run with its parameters, status, time and reported numbers.
 """
 from __future__ import annotations
 
@@ -10,15 +11,13 @@ import csv
 import io
 import itertools
 import re
-import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .errors import RecipeError
 from .exchange import write
-from .jobs import JobResult, clean_stale_temps, render_job
+from .jobs import Job, JobResult, clean_stale_temps, run_jobs
 from .recipes import parse_override
 
 
@@ -73,9 +72,11 @@ def plan(grids: list[str], seeds: list[int]) -> list[SweepRun]:
 
 def sweep(recipe_ref: str, grids: list[str], seeds: list[int], out_dir: Path, *, jobs: int = 1,
           scheduler: str | None = None, force: bool = False, progress: bool | None = None) -> list[JobResult]:
-    """Run every (grid point, seed); write ``summary.csv``; return the results in plan order."""
-    from tqdm import tqdm
+    """Run every (grid point, seed); write ``summary.csv``; return the results in plan order.
 
+    ``scheduler``: a dask scheduler address (or a ``dask.distributed.Client``); else ``jobs`` local
+    processes. Every grid point is checked before any run starts.
+    """
     from .plugins import get_plugin_manager
     from .recipes import load_recipe
 
@@ -86,40 +87,11 @@ def sweep(recipe_ref: str, grids: list[str], seeds: list[int], out_dir: Path, *,
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     clean_stale_temps(out_dir)
-    args = [(r.key, recipe_ref, r.overrides, r.seed, str(out_dir / r.key), force) for r in runs]
-    show = sys.stderr.isatty() if progress is None else progress
-    bar = tqdm(total=len(runs), desc="sweep", unit="run", disable=not show, file=sys.stderr)
-    results: dict[str, JobResult] = {}
-    if scheduler:
-        try:
-            from dask.distributed import Client, as_completed as dask_completed
-        except ImportError:
-            raise RecipeError("--scheduler needs the dask extra: pip install 'procgen-rules[dask]'") from None
-        client = Client(scheduler) if isinstance(scheduler, str) else scheduler
-        try:
-            futs = [client.submit(render_job, *a, pure=False) for a in args]
-            for fut in dask_completed(futs):
-                res = fut.result()
-                results[res.key] = res
-                bar.update(1)
-        finally:
-            if isinstance(scheduler, str):
-                client.close()
-    elif jobs <= 1:
-        for a in args:
-            res = render_job(*a)
-            results[res.key] = res
-            bar.update(1)
-    else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            for fut in as_completed([pool.submit(render_job, *a) for a in args]):
-                res = fut.result()
-                results[res.key] = res
-                bar.update(1)
-    bar.close()
-    ordered = [results[r.key] for r in runs]
-    write(out_dir / "summary.csv", summary_csv(runs, ordered))
-    return ordered
+    batch = [Job(r.key, recipe_ref, tuple(r.overrides), r.seed, str(out_dir / r.key)) for r in runs]
+    results = run_jobs(batch, host, processes=jobs, scheduler=scheduler, force=force, desc="sweep",
+                       progress=progress)
+    write(out_dir / "summary.csv", summary_csv(runs, results))
+    return results
 
 
 def summary_csv(runs: list[SweepRun], results: list[JobResult]) -> str:
