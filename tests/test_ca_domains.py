@@ -235,7 +235,7 @@ def test_rules_show_names_the_domain_kinds(capsys):
     from procgen.cli import main
     assert main(["rules", "show", "ca.life"]) == 0
     out = capsys.readouterr().out
-    assert "{cells} (any cell domain: Grid, SurfaceCells" in out
+    assert "{cells} (any cell domain: " in out
 
 
 def test_grid_cell_centres_follow_cell_ids():
