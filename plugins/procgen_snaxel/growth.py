@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import GrowthConfig
+from .params import GrowthParams
 from .snake import CURVE, ELEN, POS, T, U, UNVISITED, V, Snake
 from .speeds import base_speed, blend, circular_profile, effect_coefficient, linear_profile
 from .topology import Topology
@@ -60,21 +60,17 @@ class Stats:
 class CloudGrowth:
     """A single snake growing one cloud on a fixed tessellation."""
 
-    def __init__(self, topo: Topology, cfg: GrowthConfig, rng: np.random.Generator,
+    def __init__(self, topo: Topology, cfg: GrowthParams, rng: np.random.Generator,
                  bounds: tuple[float, float, float, float] | None = None,
                  marked: np.ndarray | None = None) -> None:
         self.cfg = cfg
-        self.limits = cfg.check()
+        self.limits = cfg.check_growth()
         self.topo = topo
-        pts = topo.points
-        if bounds is None:
-            bounds = (float(pts[:, 0].min()), float(pts[:, 1].min()),
-                      float(pts[:, 0].max()), float(pts[:, 1].max()))
+        if bounds is None and not topo.unbounded:
+            pts = topo.points
+            bounds = (float(pts[:, 0].min()), float(pts[:, 1].min()), float(pts[:, 0].max()), float(pts[:, 1].max()))
         self.bounds = bounds
-        x0, y0, x1, y1 = bounds
-        m = cfg.margin
-        blocked = (pts[:, 0] < x0 + m) | (pts[:, 0] > x1 - m) | (pts[:, 1] < y0 + m) | (pts[:, 1] > y1 - m)
-        self.snake = Snake(topo, blocked)
+        self.snake = Snake(topo, self.blocks)
         # independent streams: curve speeds, split points, cluster choices (digest property 22)
         self.rng_speed, self.rng_split, self.rng_cluster = rng.spawn(3)
         self.vb = np.zeros(0)
@@ -87,14 +83,10 @@ class CloudGrowth:
             cand = np.flatnonzero(marked & ~self.snake.blocked)
             if len(cand) == 0:
                 raise ValueError("the sketch marks no vertex inside the margin")
-            target = np.asarray(cfg.source if cfg.source is not None else pts[cand].mean(0))
-            source = int(cand[np.argmin(np.hypot(*(pts[cand] - target).T))])
+            target = np.asarray(cfg.source if cfg.source is not None else topo.points[cand].mean(0))
+            source = int(cand[np.argmin(np.hypot(*(topo.points[cand] - target).T))])
         else:
-            target = np.asarray(cfg.source if cfg.source is not None else [(x0 + x1) / 2, (y0 + y1) / 2])
-            if not (x0 + m <= target[0] <= x1 - m and y0 + m <= target[1] <= y1 - m):
-                raise ValueError(f"source {list(target)} lies outside the domain margin {bounds}")
-            free = np.flatnonzero(~self.snake.blocked)
-            source = int(free[np.argmin(np.hypot(*(pts[free] - target).T))])
+            source = self._source_vertex()
         self.source = source
         first = self._new_curve(cluster=0)
         self.snake.start(source, cfg.init_offset, first)
@@ -108,6 +100,41 @@ class CloudGrowth:
         self.snapshots: list[Snapshot] = []
         self.snapshot_every = cfg.snapshot_every
         self.last_speed = np.zeros(len(self.snake))
+
+    def blocks(self, p: np.ndarray) -> np.ndarray:
+        """Vertices a snaxel must not enter: the domain margin (Figure 3.22) and, with a
+        condensation level, everything below it (the flat base of a cumulus)."""
+        out = np.zeros(len(p), bool)
+        if self.bounds is not None:
+            x0, y0, x1, y1 = self.bounds
+            m = self.cfg.margin
+            out |= (p[:, 0] < x0 + m) | (p[:, 0] > x1 - m) | (p[:, 1] < y0 + m) | (p[:, 1] > y1 - m)
+        if self.cfg.condensation_level is not None:
+            out |= p[:, 1] < self.cfg.condensation_level
+        return out
+
+    def _source_vertex(self) -> int:
+        """The free vertex nearest to ``source`` (default: the domain centre, or the origin)."""
+        cfg, topo = self.cfg, self.topo
+        if cfg.source is not None:
+            target = np.asarray(cfg.source, float)
+        elif self.bounds is not None:
+            x0, y0, x1, y1 = self.bounds
+            target = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        else:
+            target = np.zeros(2)
+        if self.blocks(target[None])[0]:
+            raise ValueError(f"source {list(target)} lies in the blocked margin or below the condensation level")
+        if topo.ensure_box(target[0], target[1], target[0], target[1]):
+            self.sync()
+        free = np.flatnonzero(~self.snake.blocked & topo.ready)
+        return int(free[np.argmin(np.hypot(*(topo.points[free] - target).T))])
+
+    def sync(self) -> None:
+        """Per-vertex arrays follow a tiled tessellation that has added vertices."""
+        self.snake.sync()
+        if self.marked is not None and len(self.marked) < self.topo.n_vertices:
+            self.marked = np.concatenate([self.marked, np.zeros(self.topo.n_vertices - len(self.marked), bool)])
 
     # -- curve table ------------------------------------------------------------------------
     def _new_curve(self, cluster: int, copy_of: int | None = None) -> int:
@@ -283,6 +310,8 @@ class CloudGrowth:
             return False
         cfg = self.cfg
         snake = self.snake
+        if self.topo.ensure(snake.ints[:, V]):      # lazy tiles: ready every vertex a snaxel heads to
+            self.sync()
         if self.snapshot_every and self.stats.steps % self.snapshot_every == 0:
             self.snapshot()
         xy = snake.xy()
