@@ -180,13 +180,15 @@ def test_reports_name_the_thesis_quantities(tmp_path, host):
     (dict(t_max=70.0), ["g_max", "t_max"]),
     (dict(w_s=1.2), ["w_s"]),
     (dict(strokes=[[10.0, 10.0, 320.0, 40.0]]), ["stroke 0", "outside the domain"]),
-    (dict(sketch_svg="{svg}"), ["no path"]),
+    (dict(sketch_svg="{svg}"), ["no stroke"]),
+    (dict(seed_policy="tallest"), ["seed_policy", "uniform"]),
+    (dict(bounds=[0.0, 0.0, 50.0, 50.0]), ["too small", "g_min"]),
     (dict(sketch_svg="/nonexistent/sketch.svg"), ["not found"]),
     (dict(source=[2.0, 150.0]), ["source", "margin"]),
 ])
 def test_bad_input_is_one_line_error_before_compute(tmp_path, host, extra, words):
     svg = tmp_path / "empty.svg"
-    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect width="5" height="5"/></svg>')
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><g><text x="1" y="5">hi</text></g></svg>')
     extra = {k: (str(svg) if v == "{svg}" else v) for k, v in extra.items()}
     with pytest.raises(RecipeError) as err:
         load_recipe(recipe_file(tmp_path, extra), host)
@@ -268,14 +270,34 @@ def test_runner_frames_show_the_growth(tmp_path, host):
     assert all(b >= a for a, b in zip(areas, areas[1:])) and areas[-1] > 3 * areas[0]
 
 
-def test_svg_path_parser_handles_inkscape_commands():
-    from procgen_snaxel.sketch import parse_path_d
+INKSCAPE_SKETCH = """<?xml version="1.0" encoding="UTF-8"?>
+<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"
+     width="100mm" height="50mm" viewBox="0 0 200 100" version="1.1">
+  <g inkscape:groupmode="layer" inkscape:label="Layer 1" id="layer1" transform="translate(20,10)">
+    <path d="m 10,40 a 30,30 0 0 1 60,0" style="fill:none;stroke:#000000;stroke-width:1" />
+  </g>
+  <g inkscape:groupmode="layer" inkscape:label="Layer 2" id="layer2" transform="matrix(2,0,0,2,100,0)">
+    <path d="M 0,40 C 0,20 20,20 20,40" style="fill:none;stroke:#000000" />
+  </g>
+</svg>
+"""
 
-    square = parse_path_d("M 0,0 h 10 v 10 H 0 z")[0]
-    assert np.allclose(square, [[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]])
-    rel = parse_path_d("m 5 5 l 1 1 2 2")[0]                 # implicit lineto after moveto
-    assert np.allclose(rel, [[5, 5], [6, 6], [8, 8]])
-    curve = parse_path_d("M0,0 C 0,10 10,10 10,0 S 20,-10 20,0 Q 25,5 30,0 T 40,0")[0]
-    assert np.allclose(curve[-1], [40, 0]) and curve[:, 1].max() == pytest.approx(7.5)
-    two = parse_path_d("M0 0 L1 1 M5 5 L6 6")
-    assert len(two) == 2
+
+def test_sketch_svg_honours_layer_transforms_arcs_and_curves(tmp_path):
+    """An Inkscape 1.x file: a layer translated, a half-circle arc, a layer scaled with a Bezier.
+    Mapped onto a 0..400 x 0..200 domain (2 units per viewBox unit, y flipped)."""
+    from procgen_snaxel.sketch import strokes_from_svg
+
+    p = tmp_path / "sketch.svg"
+    p.write_text(INKSCAPE_SKETCH)
+    arc, bez = strokes_from_svg(p, (0.0, 400.0, 0.0, 200.0))
+    # arc: centre (20+40, 10+40) = (60, 50), radius 30, upper half (SVG y down) -> domain centre
+    # (120, 100), radius 60, the bulge above the centre (y up)
+    r = np.hypot(arc[:, 0] - 120.0, arc[:, 1] - 100.0)
+    assert np.allclose(r, 60.0, atol=0.1) and len(arc) > 8
+    assert arc[:, 1].max() == pytest.approx(160.0, abs=0.1) and np.all(arc[:, 1] >= 100.0 - 1e-6)
+    # Bezier in a layer scaled by 2 and moved by 100: ends at (100, 80) and (140, 80) in the
+    # viewBox -> (200, 40) and (280, 40) in the domain; its top (t = 1/2) at y = 80 - 2*15 = 50
+    # -> domain y = 200 - 100 = 100
+    assert bez[0] == pytest.approx([200.0, 40.0]) and bez[-1] == pytest.approx([280.0, 40.0])
+    assert bez[:, 1].max() == pytest.approx(100.0, abs=0.5)       # within the flattening tolerance

@@ -302,11 +302,11 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         base.add_stop_color(1.0, bottom, 0.85)
         dwg.defs.add(base)
         g = dwg.g(clip_path=f"url(#cloud{i})")
-        g.add(dwg.path(d=d, fill=bottom))
+        g.add(dwg.path(d=d, fill=_mix(top, bottom, 0.3)))                # fringes between lobes: lit
         lobes = _lobes(pts, cv, lobe_min * height)
         for c, r in sorted(lobes, key=lambda cr: cr[0][1]):          # low lobes first, tops in front
             (cx, cy), = page.xy(c[None])
-            g.add(dwg.circle(center=(fmt_number(cx), fmt_number(cy)), r=fmt_number(r), fill=f"url(#lobe{i})"))
+            g.add(dwg.circle(center=(fmt_number(cx), fmt_number(cy)), r=fmt_number(1.15 * r), fill=f"url(#lobe{i})"))
         x0, y0 = page.xy(np.array([[pts[:, 0].min(), pts[:, 1].max()]]))[0]
         g.add(dwg.rect(insert=(fmt_number(x0), fmt_number(y0)), size=(fmt_number(np.ptp(pts[:, 0])), fmt_number(height)),
                        fill=f"url(#base{i})"))

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from shapely.geometry import Polygon
 
 from .params import GrowthParams
 from .snake import CURVE, ELEN, POS, T, U, UNVISITED, V, Snake
@@ -411,7 +412,9 @@ class CloudGrowth:
             self.stats.cluster_log.append({"cluster": self.active + 1, "end": "no seed curve left"})
             self.done = True
             return
-        r = int(cand[int(self.rng_cluster.integers(len(cand)))])
+        w = self.seed_weights(runs, cand)
+        r = int(cand[int(self.rng_cluster.choice(len(cand), p=w))]) if w is not None else \
+            int(cand[int(self.rng_cluster.integers(len(cand)))])
         self.active += 1
         cid = int(runs.curve[r])
         self.cluster_of[cid] = self.active
@@ -421,6 +424,31 @@ class CloudGrowth:
         self.g = float(self.rng_cluster.uniform(cfg.g_min, cfg.g_max))
         self.cluster_start = self.stats.steps
         self.best_t, self.best_step = t0, self.stats.steps
+
+    def seed_weights(self, runs: Runs, cand: np.ndarray) -> np.ndarray | None:
+        """Probabilities of the candidate seed curves under ``seed_policy`` (None: uniform, the
+        thesis's rule). The thesis names the choice of the next cluster's seed curve as what decides
+        the silhouette and leaves its control to future work (Chapter 5); here a curve's weight is
+        exp(seed_bias * score), the score in [0, 1] measured on the curve's mid-point against the
+        cloud's box: height above the base (towers), closeness to the centroid (compact heaps) or
+        horizontal distance from the centroid (spreading sheets)."""
+        policy, bias = self.cfg.seed_policy, self.cfg.seed_bias
+        if policy == "uniform" or bias == 0.0 or len(cand) < 2:
+            return None
+        xy = self.snake.xy()
+        mid = np.column_stack([np.bincount(runs.rid, xy[:, k], minlength=len(runs.starts)) for k in (0, 1)])
+        mid = mid[cand] / runs.count[cand, None]
+        lo, hi = xy.min(0), xy.max(0)
+        size = np.maximum(hi - lo, 1e-9)
+        centre = np.asarray(Polygon(xy).centroid.coords[0])
+        if policy == "height":
+            score = (mid[:, 1] - lo[1]) / size[1]
+        elif policy == "centroid":
+            score = 1.0 - np.hypot(*((mid - centre) / size).T) / np.sqrt(0.5)
+        else:   # spread
+            score = np.abs(mid[:, 0] - centre[0]) / (0.5 * size[0])
+        w = np.exp(bias * (np.clip(score, 0.0, 1.0) - 1.0))
+        return w / w.sum()
 
     # -- outputs ----------------------------------------------------------------------------
     def snapshot(self) -> None:
@@ -447,4 +475,16 @@ class CloudGrowth:
             "clusters_stalled": self.stats.clusters_stalled, "sketch_steps": self.stats.sketch_steps,
             "area": Snake.signed_area(xy), "perimeter": runs.perimeter,
             "bbox": [float(xy[:, 0].min()), float(xy[:, 1].min()), float(xy[:, 0].max()), float(xy[:, 1].max())],
+            **shape_statistics(xy),
+            "area_history": [round(Snake.signed_area(s.xy), 3) for s in self.snapshots],
+            "perimeter_history": [round(float(np.hypot(*(np.roll(s.xy, -1, 0) - s.xy).T).sum()), 3)
+                                  for s in self.snapshots],
         }
+
+
+def shape_statistics(xy: np.ndarray) -> dict[str, float]:
+    """Aspect ratio (box width / height) and solidity (area / convex-hull area) of an outline:
+    the two numbers the cloud-type presets are held to."""
+    poly = Polygon(xy)
+    w, h = np.ptp(xy, axis=0)
+    return {"aspect": round(float(w / h), 4), "solidity": round(float(poly.area / poly.convex_hull.area), 4)}

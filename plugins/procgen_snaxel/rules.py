@@ -10,6 +10,7 @@ import numpy as np
 
 from procgen import InputError, Polylines, State, TriMesh, param
 
+from .fractal import ensemble_dimension
 from .growth import CloudGrowth, Snapshot
 from .params import _EXAMPLE_GROWTH, GrowthParams
 from .sketch import check_inside, mark_vertices, strokes_from_lists, strokes_from_svg
@@ -24,6 +25,12 @@ class GrowthRule(GrowthParams):
 
     def validate(self) -> None:
         super().validate()
+        if self.bounds is not None:
+            x0, y0, x1, y1 = self.bounds
+            room = min(x1 - x0, y1 - y0) - 2.0 * self.margin
+            if room < self.g_min:
+                raise ValueError(f"bounds {self.bounds} leave {room:g} inside the margin, less than one cluster's "
+                                 f"growth g_min = {self.g_min:g}: too small for this cloud (enlarge bounds or drop them)")
         if self.sketch:
             if self.bounds is None:
                 raise ValueError("sketch mode needs bounds = [x0, y0, x1, y1] so the sketch can be checked")
@@ -178,6 +185,17 @@ class GrowCloud(GrowthRule):
 
     def step(self, state: State) -> bool:
         return self._growth.step()
+
+    def ensemble_statistics(self, reports: list[dict]) -> dict[str, float]:
+        """Over a sweep's runs: Lovejoy's area-perimeter dimension D of all recorded contours, and
+        the band of aspect ratio and solidity of the final outlines (``procgen sweep``)."""
+        c = self.cloud
+        out = ensemble_dimension([r[f"{c}.area_history"] for r in reports], [r[f"{c}.perimeter_history"] for r in reports])
+        for key in ("aspect", "solidity"):
+            v = [r[f"{c}.{key}"] for r in reports]
+            out.update({f"{key}_min": min(v), f"{key}_median": round(float(np.median(v)), 4), f"{key}_max": max(v)})
+        out["runs"] = len(reports)
+        return out
 
     def finish(self, state: State) -> None:
         g = self._growth

@@ -15,11 +15,12 @@ tessellation does not depend on the order in which growth asks for tiles:
   the Delaunay triangulation of its 3 x 3 block of tiles, which holds every sample within r of
   the tile, so they are exactly the global Delaunay triangles (empty-circle test) and every
   triangle is owned by one tile.
-* **Rings.** A vertex's triangles have circumcentres within r of it, so once the 3 x 3 tiles
-  around its tile own their triangles, its ring is final and the vertex is *ready*.
+* **Rings.** A vertex's triangles have circumcentres within r of it, so once the tiles within r
+  of it own their triangles, its ring is final and the vertex is *ready*.
 
 ``ensure`` is called with the snaxels' destination vertices every step; it does nothing until a
-destination is not ready, then readies its tile and the 3 x 3 block around it in one batch.
+destination is not ready, then, in one batch, owns the tiles within r of those vertices (sampling
+the blocks they need) and finishes the ring of every vertex whose tiles are now all owned.
 """
 from __future__ import annotations
 
