@@ -1,83 +1,116 @@
-"""Benchmark: the Figure 4.2(e) cloud at Poisson radius 4 on a 1200 x 1200 domain (issue 4).
+"""Benchmark: the Figure 4.2(e) cloud grown on an eager and on a lazily tiled tessellation (issue 15).
 
-Prints, per seed, the time for the tessellation (Poisson-disk + Delaunay, the core's rules),
-the snake topology build, the growth, and the share of the growth spent in per-event Python
-(births/merges/holes), plus steps, births, merges, holes, N_s, N_v. Baseline: the digest's
-throw-away pure-Python reading needed 6-19 s for the growth alone on the same settings.
+Side by side, in one run, each configuration in a fresh process (so peak memory is its own):
 
-    python benchmarks/clouds.py [--seeds 1 2 3] [--radius 4]
+* eager: the thesis's way (section 3.1), points.poisson_disk + mesh.delaunay over the whole
+  2000 x 2000 domain, then snaxel.grow on that mesh (the baseline);
+* lazy 2000 / lazy 8000: snaxel.grow making Poisson-disk Delaunay tiles only where the cloud
+  grows, on a 2000 and an 8000 px domain, source at (1000, 1000) in both, so the two clouds
+  are the same and only the domain differs (the outlines are compared byte for byte).
+
+Prints seconds for the tessellation steps and the growth, steps, N_v (vertices made), N_s, tiles
+and peak RSS, then the ratios eager/lazy (target >= 3) and lazy 8000/lazy 2000 (target <= 1.1).
+
+    python benchmarks/clouds.py [--seeds 1 2] [--radius 4]
 """
 from __future__ import annotations
 
 import argparse
+import resource
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from procgen import get_plugin_manager, run
-from procgen.recipes import load_recipe
-from procgen_snaxel import snake as snake_mod
-from procgen_snaxel.rules import GrowCloud
-from procgen_snaxel.topology import build_topology
+EAGER = """
+[recipe]
+name = "fig-4-2e-eager"
+seed = 1
 
-BASELINE_GROWTH_S = (6.0, 19.0)
+[[steps]]
+rule = "points.poisson_disk"
+params = {{ domain = "points", width = {size}, height = {size}, radius = {radius} }}
+
+[[steps]]
+rule = "mesh.delaunay"
+params = {{ points = "points", mesh = "tessellation" }}
+
+[[steps]]
+rule = "snaxel.grow"
+until = "stable"
+max_iterations = 40000
+[steps.params]
+mesh = "tessellation"
+bounds = [0.0, 0.0, {size}, {size}]
+source = [1000.0, 1000.0]
+v_min = 5.0
+v_max = 30.0
+t_min = 0.0
+t_max = 150.0
+g_min = 240.0
+g_max = 250.0
+n_c = 7
+table = [[0, 50, 400], [50, 150, 1000], [150, 200, 1500], [200, 25]]
+"""
+
+
+def one(kind: str, size: float, seed: int, radius: float) -> dict:
+    """Run one configuration; seconds per step, reports, outline bytes and peak RSS (MB)."""
+    from procgen import get_plugin_manager, run
+    from procgen.recipes import load_recipe
+
+    host = get_plugin_manager()
+    with tempfile.TemporaryDirectory() as tmp:
+        if kind == "eager":
+            p = Path(tmp) / "eager.toml"
+            p.write_text(EAGER.format(size=size, radius=radius))
+            rec = load_recipe(p, host)
+        else:
+            rec = load_recipe("clouds/fig-4-2e", host, [f"steps.0.params.radius={radius}",
+                                                       f"steps.0.params.bounds=[0.0, 0.0, {size}, {size}]",
+                                                       "steps.0.params.source=[1000.0, 1000.0]"])
+        rec.outputs.clear()
+        t0 = time.perf_counter()
+        res = run(rec, host, seed=seed, progress=False, out_dir=Path(tmp) / "out")
+        wall = time.perf_counter() - t0
+    secs = {s["rule"]: s["seconds"] for s in res.run_info["steps"]}
+    rep = res.state.reports
+    return {"kind": kind, "size": size, "seed": seed, "wall": wall,
+            "tess": secs.get("points.poisson_disk", 0.0) + secs.get("mesh.delaunay", 0.0),
+            "grow": secs["snaxel.grow"], "steps": rep["cloud.steps"], "N_v": rep["N_v"], "N_s": rep["N_s"],
+            "tiles": rep.get("cloud.tiles", 0), "outline": res.state.get("cloud").points.tobytes(),
+            "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--radius", type=float, default=4.0)
     args = ap.parse_args()
-    host = get_plugin_manager()
-    event_time = [0.0]
-    original = snake_mod.Snake.birth
-
-    def timed_birth(self, p, carry):
-        t0 = time.perf_counter()
-        original(self, p, carry)
-        event_time[0] += time.perf_counter() - t0
-
-    snake_mod.Snake.birth = timed_birth
-    topo_time = [0.0]
-    original_build = build_topology
-
-    def timed_build(points, faces):
-        t0 = time.perf_counter()
-        out = original_build(points, faces)
-        topo_time[0] += time.perf_counter() - t0
-        return out
-
-    import procgen_snaxel.rules as rules_mod
-    rules_mod.build_topology = timed_build
-    print(f"Figure 4.2(e) recipe, 1200 x 1200, Poisson radius {args.radius:g}")
-    print(f"{'seed':>4} {'tess s':>7} {'topo s':>7} {'grow s':>7} {'events s':>8} {'total s':>8} "
-          f"{'steps':>6} {'births':>7} {'merges':>7} {'holes':>6} {'N_s':>6} {'N_v':>7} {'us/step':>8}")
-    totals, grows = [], []
+    configs = [("eager", 2000.0), ("lazy", 2000.0), ("lazy", 8000.0)]
+    print(f"Figure 4.2(e), Poisson radius {args.radius:g}, source (1000, 1000); each run in a fresh process")
+    print(f"{'config':>12} {'seed':>4} {'tess s':>7} {'grow s':>7} {'whole s':>8} {'steps':>6} {'N_v':>7} "
+          f"{'N_s':>6} {'tiles':>6} {'peak MB':>8}")
+    rows: dict[tuple[str, float], list[dict]] = {c: [] for c in configs}
     for seed in args.seeds:
-        event_time[0] = topo_time[0] = 0.0
-        rec = load_recipe("clouds/fig-4-2e", host, [f"steps.0.params.radius={args.radius}",
-                                                   "steps.0.params.width=1200.0", "steps.0.params.height=1200.0",
-                                                   "steps.2.params.bounds=[0.0, 0.0, 1200.0, 1200.0]"])
-        rec.outputs.clear()
-        with tempfile.TemporaryDirectory() as tmp:
-            res = run(rec, host, seed=seed, progress=False, out_dir=Path(tmp))
-        secs = {s["rule"]: s["seconds"] for s in res.run_info["steps"]}
-        rep = res.state.reports
-        tess = secs["points.poisson_disk"] + secs["mesh.delaunay"]
-        grow_s = secs[GrowCloud.name] - topo_time[0]       # the rule's setup builds the topology
-        total = tess + topo_time[0] + grow_s
-        totals.append(total)
-        grows.append(grow_s)
-        steps = rep["cloud.steps"]
-        print(f"{seed:>4} {tess:7.2f} {topo_time[0]:7.2f} {grow_s:7.2f} {event_time[0]:8.2f} {total:8.2f} "
-              f"{steps:>6} {rep['cloud.births']:>7} {rep['cloud.merges']:>7} {rep['cloud.holes']:>6} "
-              f"{rep['N_s']:>6} {rep['N_v']:>7} {1e6 * grow_s / steps:8.0f}")
-    mean, g = float(np.mean(totals)), float(np.mean(grows))
-    print(f"mean whole cloud {mean:.2f} s (target < 3 s); growth {g:.2f} s, "
-          f"{BASELINE_GROWTH_S[0] / g:.1f}x-{BASELINE_GROWTH_S[1] / g:.1f}x faster than the pure-Python "
-          f"reading ({BASELINE_GROWTH_S[0]:g}-{BASELINE_GROWTH_S[1]:g} s)")
+        for kind, size in configs:
+            with ProcessPoolExecutor(max_workers=1) as pool:
+                r = pool.submit(one, kind, size, seed, args.radius).result()
+            rows[(kind, size)].append(r)
+            whole = r["tess"] + r["grow"]
+            print(f"{kind + ' ' + str(int(size)):>12} {seed:>4} {r['tess']:7.2f} {r['grow']:7.2f} {whole:8.2f} "
+                  f"{r['steps']:>6} {r['N_v']:>7} {r['N_s']:>6} {r['tiles']:>6} {r['rss']:8.0f}")
+        same = rows[("lazy", 2000.0)][-1]["outline"] == rows[("lazy", 8000.0)][-1]["outline"]
+        print(f"{'':>12} seed {seed}: lazy 2000 and lazy 8000 outlines byte-identical: {same}")
+
+    def mean(kind: str, size: float) -> float:
+        return float(np.mean([r["tess"] + r["grow"] for r in rows[(kind, size)]]))
+
+    eager, lazy, big = mean("eager", 2000.0), mean("lazy", 2000.0), mean("lazy", 8000.0)
+    print(f"mean whole run: eager {eager:.2f} s, lazy 2000 {lazy:.2f} s, lazy 8000 {big:.2f} s")
+    print(f"eager / lazy = {eager / lazy:.2f} (target >= 3); lazy 8000 / lazy 2000 = {big / lazy:.2f} (target <= 1.1)")
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import textwrap
@@ -209,6 +210,9 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
               f"-> {out / 'summary.csv'}")
         for r in failed:
             print(f"  FAILED {r.key}: {r.error}")
+        if (out / "ensemble.json").is_file():
+            for label, stats in json.loads((out / "ensemble.json").read_text()).items():
+                print(f"  ensemble {label}: " + ", ".join(f"{k} = {v}" for k, v in stats.items()))
         return 1 if failed else 0
     if args.command == "new-plugin":
         from .scaffold import new_plugin

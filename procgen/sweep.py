@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import itertools
+import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -91,7 +92,33 @@ def sweep(recipe_ref: str, grids: list[str], seeds: list[int], out_dir: Path, *,
     results = run_jobs(batch, host, processes=jobs, scheduler=scheduler, force=force, desc="sweep",
                        progress=progress)
     write(out_dir / "summary.csv", summary_csv(runs, results))
+    ensemble = ensemble_statistics(recipe_ref, host, runs, results)
+    if ensemble:
+        write(out_dir / "ensemble.json", json.dumps(ensemble, indent=1, sort_keys=True) + "\n")
     return results
+
+
+def ensemble_statistics(recipe_ref: str, host: Any, runs: list[SweepRun], results: list[JobResult]
+                        ) -> dict[str, dict[str, Any]]:
+    """Statistics over each grid point's seeds (and over all runs, key "all") from every rule of the
+    recipe that defines ``ensemble_statistics(reports: list[dict]) -> dict`` (a rule summarising an
+    ensemble of its runs, e.g. a fractal dimension). Empty when no rule does."""
+    from .recipes import load_recipe
+
+    groups: dict[str, list[int]] = {}
+    for i, r in enumerate(runs):
+        groups.setdefault(r.key.rsplit("/seed-", 1)[0], []).append(i)
+    if len(groups) > 1:
+        groups["all"] = list(range(len(runs)))
+    out: dict[str, dict[str, Any]] = {}
+    for label, idx in groups.items():
+        rules = [s.rule for s in load_recipe(recipe_ref, host, runs[idx[0]].overrides).steps]
+        reports = [results[i].reports for i in idx if results[i].status != "failed"]
+        for rule in rules:
+            summarise = getattr(rule, "ensemble_statistics", None)
+            if summarise is not None and reports:
+                out.setdefault(label, {}).update(summarise(reports))
+    return out
 
 
 def summary_csv(runs: list[SweepRun], results: list[JobResult]) -> str:

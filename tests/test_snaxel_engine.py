@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from shapely.geometry import LineString, Polygon
 
-from procgen_snaxel.config import GrowthConfig
+from procgen_snaxel.params import GrowthParams
 from procgen_snaxel.growth import CloudGrowth
 from procgen_snaxel.snake import UNVISITED, U, V
 from procgen_snaxel.speeds import base_speed, circular_profile, circular_profile_by_rays
@@ -19,11 +19,11 @@ def scaled(table: str) -> list[list[float]]:
     return [[x * SCALE for x in row[:-1]] + [row[-1] * SCALE] for row in THESIS_TABLES[table]]
 
 
-def small_cfg(**kw) -> GrowthConfig:
+def small_cfg(**kw) -> GrowthParams:
     base = dict(table=scaled("4.5"), t_min=0.0, t_max=150 * SCALE, g_min=240 * SCALE, g_max=250 * SCALE,
                 c_min=3 * SCALE * 2, margin=4.0, n_c=4)
     base.update(kw)
-    return GrowthConfig(**base)
+    return GrowthParams(**base)
 
 
 @pytest.fixture(scope="module")
@@ -41,8 +41,7 @@ def check_snake(g: CloudGrowth, previous: Polygon | None) -> Polygon:
     assert np.all(pos > 0) and np.all(pos < elen)
     # every visited-unvisited edge carries exactly one snaxel (no gaps, no duplicates)
     nv = topo.n_vertices
-    ptr, ring = topo.ring_ptr, topo.ring
-    src = np.repeat(np.arange(nv), np.diff(ptr))
+    src, ring = topo.rings_of(np.flatnonzero(topo.ready))
     front = (s.state[src] != UNVISITED) & (s.state[ring] == UNVISITED)
     assert sorted((src[front] * nv + ring[front]).tolist()) == sorted((u * nv + v).tolist())
     # 5: consecutive snaxels share a triangle and follow the right-hand rule (visited on the left)
@@ -141,10 +140,13 @@ def test_tables_lookup_and_rejects_bad_rows():
 
 
 def test_bad_parameters_are_rejected():
+    from procgen import RecipeError
+
     for kw, word in [(dict(v_min=0.0), "v_min"), (dict(g_min=30.0, g_max=37.5, t_max=37.5), "g_max"),
-                     (dict(w_s=1.5), "w_s"), (dict(details="spline"), "details")]:
-        with pytest.raises(ValueError, match=word):
-            small_cfg(**kw).check()
+                     (dict(w_s=1.5), "w_s"), (dict(details="spline"), "details"),
+                     (dict(seed_policy="tallest"), "seed_policy"), (dict(radius=4.0, tile=6.0), "tile")]:
+        with pytest.raises(RecipeError, match=word):
+            GrowthParams.from_params(kw)
 
 
 def test_curves_split_by_table_and_short_curves_merge(topo):
@@ -245,7 +247,7 @@ def test_resolution_changes_detail_not_size():
         out = []
         for seed in (1, 2, 3):
             topo = poisson_tessellation(800.0, 800.0, radius, np.random.default_rng(100 + seed))
-            cfg = GrowthConfig(table=TT["4.1"], v_min=2.0, v_max=25.0, t_max=50.0, g_min=240.0, g_max=250.0, n_c=2)
+            cfg = GrowthParams(table=TT["4.1"], v_min=2.0, v_max=25.0, t_max=50.0, g_min=240.0, g_max=250.0, n_c=2)
             xy = CloudGrowth(topo, cfg, np.random.default_rng(seed)).run().snake.xy()
             w, h = xy.max(0) - xy.min(0)
             out.append([Polygon(xy).area, w, h])

@@ -20,14 +20,7 @@ SMALL = """
 name = "small_cloud"
 seed = 3
 
-[[steps]]
-rule = "points.poisson_disk"
-params = {{ domain = "points", width = 300.0, height = 300.0, radius = 2.0 }}
-
-[[steps]]
-rule = "mesh.delaunay"
-params = {{ points = "points", mesh = "tessellation" }}
-
+{mesh_steps}
 [[steps]]
 rule = "{rule}"
 {until}
@@ -38,7 +31,16 @@ rule = "{rule}"
 """
 
 # the thesis's Table 4.5 / Table 4.2 row 4.2(e) scaled by 1/4 to a 300-unit domain
-BASE = dict(bounds=[0.0, 0.0, 300.0, 300.0], table=[[0, 12.5, 100], [12.5, 37.5, 250], [37.5, 50, 375], [50, 6.25]],
+MESH_STEPS = """
+[[steps]]
+rule = "points.poisson_disk"
+params = { domain = "points", width = 300.0, height = 300.0, radius = 2.0 }
+
+[[steps]]
+rule = "mesh.delaunay"
+params = { points = "points", mesh = "tessellation" }
+"""
+BASE = dict(bounds=[0.0, 0.0, 300.0, 300.0], radius=2.0, table=[[0, 12.5, 100], [12.5, 37.5, 250], [37.5, 50, 375], [50, 6.25]],
             t_max=37.5, g_min=60.0, g_max=62.5, n_c=3, c_min=1.5, margin=5.0)
 
 
@@ -78,17 +80,20 @@ file = "growth.svg"
 
 
 def recipe_file(tmp_path, extra: dict | None = None, rule: str = "snaxel.grow", outputs: str = CLOUD_OUTPUTS,
-                name: str = "r.toml"):
+                name: str = "r.toml", mesh: bool = False):
+    """A small cloud recipe: lazy tiles, or with ``mesh`` an eager Poisson + Delaunay mesh."""
     until = 'until = "stable"\nmax_iterations = 20000' if rule == "snaxel.grow" else ""
     params = dict(BASE, **(extra or {}))
+    if mesh:
+        params["mesh"] = "tessellation"
     p = tmp_path / name
-    p.write_text(SMALL.format(rule=rule, until=until, outputs=outputs,
+    p.write_text(SMALL.format(rule=rule, until=until, outputs=outputs, mesh_steps=MESH_STEPS if mesh else "",
                               params="\n".join(f"{k} = {toml_value(v)}" for k, v in params.items())))
     return p
 
 
-def grow(tmp_path, host, extra: dict | None = None, seed: int | None = None, out: str = "out"):
-    rec = load_recipe(recipe_file(tmp_path, extra), host)
+def grow(tmp_path, host, extra: dict | None = None, seed: int | None = None, out: str = "out", mesh: bool = False):
+    rec = load_recipe(recipe_file(tmp_path, extra, mesh=mesh), host)
     return run(rec, host, seed=seed, out_dir=tmp_path / out, progress=False)
 
 
@@ -108,10 +113,11 @@ def test_cloud_svg_is_one_closed_path_other_tools_render(tmp_path, host):
     root, path = cloud_path(svg)
     d = path.get("d")
     assert d.startswith("M") and d.rstrip().endswith("Z")
-    assert [float(x) for x in root.get("viewBox").split()] == [0.0, -300.0, 300.0, 300.0]
+    assert [float(x) for x in root.get("viewBox").split()] == [0.0, 0.0, 300.0, 300.0]    # y-down, from 0 0
+    assert root.get("width") == "800px" and "transform" not in svg.decode()
     # one vertex per snaxel: N_s reported in run.json matches the path
     reports = json.loads((tmp_path / "out" / "run.json").read_text())["reports"]
-    assert reports["N_s"] == d.count(" L") + 1 and reports["N_v"] == res.state.get("tessellation").n_vertices
+    assert reports["N_s"] == d.count(" L") + 1 and reports["N_v"] > reports["N_s"]
     # rasterised by cairo: the cloud interior is white, the corner is sky
     png = cairosvg.svg2png(bytestring=svg, output_width=300, output_height=300)
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
@@ -136,7 +142,7 @@ def test_same_seed_byte_identical_other_seed_differs(tmp_path, host):
 def test_process_view_and_animations(tmp_path, host):
     from PIL import Image
 
-    res = grow(tmp_path, host)
+    res = grow(tmp_path, host, mesh=True)          # the eager mesh path, as the thesis tessellates
     hist = res.state.get("cloud_history")
     assert hist.n_lines >= 5 and np.all(np.diff(hist["snapshot__step"]) > 0)
     polys = [Polygon(hist.line(i)) for i in range(hist.n_lines)]
@@ -174,13 +180,15 @@ def test_reports_name_the_thesis_quantities(tmp_path, host):
     (dict(t_max=70.0), ["g_max", "t_max"]),
     (dict(w_s=1.2), ["w_s"]),
     (dict(strokes=[[10.0, 10.0, 320.0, 40.0]]), ["stroke 0", "outside the domain"]),
-    (dict(sketch_svg="{svg}"), ["no path"]),
+    (dict(sketch_svg="{svg}"), ["no stroke"]),
+    (dict(seed_policy="tallest"), ["seed_policy", "uniform"]),
+    (dict(bounds=[0.0, 0.0, 50.0, 50.0]), ["too small", "g_min"]),
     (dict(sketch_svg="/nonexistent/sketch.svg"), ["not found"]),
     (dict(source=[2.0, 150.0]), ["source", "margin"]),
 ])
 def test_bad_input_is_one_line_error_before_compute(tmp_path, host, extra, words):
     svg = tmp_path / "empty.svg"
-    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect width="5" height="5"/></svg>')
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><g><text x="1" y="5">hi</text></g></svg>')
     extra = {k: (str(svg) if v == "{svg}" else v) for k, v in extra.items()}
     with pytest.raises(RecipeError) as err:
         load_recipe(recipe_file(tmp_path, extra), host)
@@ -249,27 +257,47 @@ def test_runner_frames_show_the_growth(tmp_path, host):
     """frames = {every = K}: the rule publishes before each frame, so it is the outline at that step."""
     p = recipe_file(tmp_path, dict(), outputs="")
     text = p.read_text().replace('max_iterations = 20000',
-                                 'max_iterations = 20000\nframes = { every = 40, domain = "cloud", format = "cloud_svg" }')
+                                 'max_iterations = 20000\nframes = { every = 20, domain = "cloud", format = "cloud_svg" }')
     p.write_text(text)
     res = run(load_recipe(p, host), host, out_dir=tmp_path / "o", progress=False)
-    frames = sorted((tmp_path / "o" / "frames" / "step2").glob("frame_*.svg"))
-    assert len(frames) == res.run_info["reports"]["cloud.steps"] // 40
+    frames = sorted((tmp_path / "o" / "frames" / "step0").glob("frame_*.svg"))
+    assert len(frames) == res.run_info["reports"]["cloud.steps"] // 20
     areas = []
     for f in frames:
         d = cloud_path(f.read_bytes())[1].get("d")
         pts = np.array([[float(v) for v in xy.split(",")] for xy in re.findall(r"-?[\d.]+,-?[\d.]+", d)])
         areas.append(Polygon(pts).area)
-    assert all(b >= a for a, b in zip(areas, areas[1:])) and areas[-1] > 5 * areas[0]
+    assert all(b >= a for a, b in zip(areas, areas[1:])) and areas[-1] > 3 * areas[0]
 
 
-def test_svg_path_parser_handles_inkscape_commands():
-    from procgen_snaxel.sketch import parse_path_d
+INKSCAPE_SKETCH = """<?xml version="1.0" encoding="UTF-8"?>
+<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"
+     width="100mm" height="50mm" viewBox="0 0 200 100" version="1.1">
+  <g inkscape:groupmode="layer" inkscape:label="Layer 1" id="layer1" transform="translate(20,10)">
+    <path d="m 10,40 a 30,30 0 0 1 60,0" style="fill:none;stroke:#000000;stroke-width:1" />
+  </g>
+  <g inkscape:groupmode="layer" inkscape:label="Layer 2" id="layer2" transform="matrix(2,0,0,2,100,0)">
+    <path d="M 0,40 C 0,20 20,20 20,40" style="fill:none;stroke:#000000" />
+  </g>
+</svg>
+"""
 
-    square = parse_path_d("M 0,0 h 10 v 10 H 0 z")[0]
-    assert np.allclose(square, [[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]])
-    rel = parse_path_d("m 5 5 l 1 1 2 2")[0]                 # implicit lineto after moveto
-    assert np.allclose(rel, [[5, 5], [6, 6], [8, 8]])
-    curve = parse_path_d("M0,0 C 0,10 10,10 10,0 S 20,-10 20,0 Q 25,5 30,0 T 40,0")[0]
-    assert np.allclose(curve[-1], [40, 0]) and curve[:, 1].max() == pytest.approx(7.5)
-    two = parse_path_d("M0 0 L1 1 M5 5 L6 6")
-    assert len(two) == 2
+
+def test_sketch_svg_honours_layer_transforms_arcs_and_curves(tmp_path):
+    """An Inkscape 1.x file: a layer translated, a half-circle arc, a layer scaled with a Bezier.
+    Mapped onto a 0..400 x 0..200 domain (2 units per viewBox unit, y flipped)."""
+    from procgen_snaxel.sketch import strokes_from_svg
+
+    p = tmp_path / "sketch.svg"
+    p.write_text(INKSCAPE_SKETCH)
+    arc, bez = strokes_from_svg(p, (0.0, 400.0, 0.0, 200.0))
+    # arc: centre (20+40, 10+40) = (60, 50), radius 30, upper half (SVG y down) -> domain centre
+    # (120, 100), radius 60, the bulge above the centre (y up)
+    r = np.hypot(arc[:, 0] - 120.0, arc[:, 1] - 100.0)
+    assert np.allclose(r, 60.0, atol=0.1) and len(arc) > 8
+    assert arc[:, 1].max() == pytest.approx(160.0, abs=0.1) and np.all(arc[:, 1] >= 100.0 - 1e-6)
+    # Bezier in a layer scaled by 2 and moved by 100: ends at (100, 80) and (140, 80) in the
+    # viewBox -> (200, 40) and (280, 40) in the domain; its top (t = 1/2) at y = 80 - 2*15 = 50
+    # -> domain y = 200 - 100 = 100
+    assert bez[0] == pytest.approx([200.0, 40.0]) and bez[-1] == pytest.approx([280.0, 40.0])
+    assert bez[:, 1].max() == pytest.approx(100.0, abs=0.5)       # within the flattening tolerance

@@ -1,8 +1,8 @@
-"""Cloud pictures: silhouette SVG, process figure, Figure 1.2 view, animations, cloudscape.
+"""Cloud pictures: silhouette SVG, process figure, Figure 1.2 view, animations, plotter pens.
 
 Exporters are pure: they take a Polylines domain made by the snaxel rules and return bytes.
-SVG drawing, path text and provenance reuse the core's svg helpers (model y-up, viewBox = the
-domain bounds).
+Pages are y-down with a viewBox from 0 0, real units and one Inkscape layer per group
+(:mod:`.svgdoc`); path text and provenance come from the core's svg helpers.
 """
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ import numpy as np
 
 from procgen import InputError, Polylines
 from procgen.builtin.lines import chaikin
-from procgen.exchange.svg import fmt_number, finish, new_drawing, path_data, polylines_svg
+from procgen.exchange.svg import finish, fmt_number, path_data
+
+from .svgdoc import Page
 
 
 def _need(domain: Any, what: str, field: str | None = None) -> Polylines:
@@ -49,19 +51,35 @@ def _mix(a: str, b: str, t: float) -> str:
 # -- the cloud itself ---------------------------------------------------------------------------
 def cloud_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, fill: str = "#ffffff",
               stroke: str | None = None, stroke_width: float = 1.0, gradient: Sequence[str] | None = None,
-              smooth: int = 0, background: str | None = "#8fb8e0", width: int = 800, title: str = "",
-              crop: bool = False) -> bytes:
-    """The outline as one filled closed path; smoothing (Chaikin passes) is off by default
-    because it softens the sharp detail the thesis claims over earlier systems. The viewBox is
-    the domain, or the cloud's own box (plus 4%) with ``crop``."""
+              smooth: int = 0, background: str | None = "#8fb8e0", width: float = 800, units: str = "px",
+              title: str = "", crop: bool = False) -> bytes:
+    """The outline as one filled closed path on a "cloud" layer, over an optional "sky" layer.
+    Smoothing (Chaikin passes) is off by default because it softens the sharp detail the thesis
+    claims over earlier systems. The page is the domain, or the cloud's own box (plus 4%) with
+    ``crop``; ``gradient`` lists colours from top to bottom."""
     dom = _need(domain, "cloud_svg")
     if not 0 <= int(smooth) <= 6:
         raise InputError(f"cloud_svg: smooth = {smooth} passes, expected 0..6")
-    lines = [chaikin(dom.line(i), bool(dom.closed[i]), int(smooth)) for i in range(dom.n_lines)]
-    out = Polylines.from_list(lines, closed=dom.closed, bounds=_crop_box(dom, 0.04) if crop else _box(dom))
-    return polylines_svg(out, provenance=provenance, fill=fill, stroke=stroke, stroke_width=stroke_width,
-                         gradient=gradient, background=background, width=width, margin=0.0,
-                         title=title or "snaxel cloud")
+    page = Page(_crop_box(dom, 0.04) if crop else _box(dom), width, units)
+    dwg = page.dwg
+    page.sky(background)
+    fill_ref = fill
+    if gradient:
+        if len(gradient) < 2:
+            raise InputError("cloud_svg: gradient needs at least two colours (top, bottom)")
+        grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id="cloud-fill")
+        for i, colour in enumerate(gradient):
+            grad.add_stop_color(i / (len(gradient) - 1), colour)
+        dwg.defs.add(grad)
+        fill_ref = "url(#cloud-fill)"
+    layer = page.layer("cloud")
+    for i in range(dom.n_lines):
+        pts = chaikin(dom.line(i), bool(dom.closed[i]), int(smooth))
+        kw: dict[str, Any] = {"d": page.d(pts, bool(dom.closed[i])), "fill": fill_ref}
+        if stroke:
+            kw.update(stroke=stroke, stroke_width=fmt_number(stroke_width * page.unit), stroke_linejoin="round")
+        layer.add(dwg.path(**kw))
+    return finish(dwg, provenance, title or "snaxel cloud")
 
 
 # -- process figure (nested contours, one colour per curve) -------------------------------------
@@ -73,78 +91,97 @@ def _crop_box(dom: Polylines, pad: float) -> tuple[float, float, float, float]:
     return (max(bx0, x0 - pad * size), min(bx1, x1 + pad * size), max(by0, y0 - pad * size), min(by1, y1 + pad * size))
 
 
-def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 800,
-                background: str | None = "#ffffff", fill: str | None = "#eef2f7", stroke_width: float = 0.9,
-                crop: bool = True, title: str = "") -> bytes:
-    """Earlier snake positions as nested contours, each curve in its own colour (Figs 3.11-3.22);
-    ``crop`` frames the cloud instead of the whole domain."""
+def _curve_pieces(pts: np.ndarray, cv: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """(curve id, points) of each curve of a closed contour, each including the joint to the next."""
+    n = len(pts)
+    starts = np.flatnonzero(cv != np.roll(cv, 1))
+    if len(starts) == 0:
+        starts = np.array([0])
+    out = []
+    for k, s in enumerate(starts):
+        e = starts[(k + 1) % len(starts)]
+        idx = np.arange(s, (e if e > s else e + n) + 1) % n
+        out.append((int(cv[s]), pts[idx]))
+    return out
+
+
+def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 800,
+                units: str = "px", background: str | None = "#ffffff", fill: str | None = "#eef2f7",
+                stroke_width: float = 0.9, crop: bool = True, title: str = "") -> bytes:
+    """Earlier snake positions as nested contours, each curve in its own colour (Figs 3.11-3.22),
+    one layer per contour; ``crop`` frames the cloud instead of the whole domain."""
     dom = _need(domain, "cloud_process_svg", "snaxel__curve")
-    dwg, group, px = new_drawing(_crop_box(dom, 0.04) if crop else _box(dom), width, background)
+    page = Page(_crop_box(dom, 0.04) if crop else _box(dom), width, units)
+    dwg = page.dwg
+    page.sky(background)
     curve = dom["snaxel__curve"]
     if fill and dom.n_lines:
-        group.add(dwg.path(d=path_data(dom.line(dom.n_lines - 1), True), fill=fill, stroke="none"))
-    sw = fmt_number(stroke_width * px)
+        page.layer("silhouette").add(dwg.path(d=page.d(dom.line(dom.n_lines - 1)), fill=fill, stroke="none"))
+    sw = fmt_number(stroke_width * page.unit)
+    steps = dom["snapshot__step"] if "snapshot__step" in dom else np.arange(dom.n_lines)
     for i in range(dom.n_lines):
         a, b = dom.offsets[i], dom.offsets[i + 1]
-        pts, cv = dom.points[a:b], curve[a:b]
-        n = len(pts)
-        if n < 2:
+        if b - a < 2:
             continue
-        starts = np.flatnonzero(cv != np.roll(cv, 1))
-        if len(starts) == 0:
-            starts = np.array([0])
-        for k, s in enumerate(starts):
-            e = starts[(k + 1) % len(starts)]
-            idx = np.arange(s, (e if e > s else e + n) + 1) % n      # include the joint to the next curve
-            group.add(dwg.path(d=path_data(pts[idx], False), fill="none", stroke=curve_colour(int(cv[s])),
+        layer = page.layer(f"contour step {int(steps[i])}")
+        for cid, piece in _curve_pieces(dom.points[a:b], curve[a:b]):
+            layer.add(dwg.path(d=page.d(piece, False), fill="none", stroke=curve_colour(cid),
                                stroke_width=sw, stroke_linejoin="round"))
     return finish(dwg, provenance, title or "snaxel growth process")
 
 
 # -- Figure 1.2 ----------------------------------------------------------------------------------
-def view_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 800,
-             background: str | None = "#ffffff", title: str = "") -> bytes:
+def view_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 800,
+             units: str = "px", background: str | None = "#ffffff", title: str = "") -> bytes:
     """Tessellation (grey edges, blue vertices), snake segments red, snaxels yellow (Figure 1.2)."""
     dom = _need(domain, "cloud_view_svg", "view__kind")
     kind = dom["view__kind"]
-    dwg, group, px = new_drawing(_box(dom), width, background)
+    box = _box(dom)
+    page = Page(box, width, units)
+    dwg, px = page.dwg, page.unit
+    page.sky(background)
     edges = [dom.line(i) for i in np.flatnonzero(kind == 0)]
     if edges:
-        group.add(dwg.path(d=" ".join(path_data(e, False) for e in edges), fill="none",
-                           stroke="#9aa4b4", stroke_width=fmt_number(1.2 * px)))
-        verts = np.unique(np.round(np.vstack(edges), 9), axis=0)
+        tess = page.layer("tessellation")
+        tess.add(dwg.path(d=" ".join(page.d(e, False) for e in edges), fill="none",
+                          stroke="#9aa4b4", stroke_width=fmt_number(1.2 * px)))
+        verts = page.xy(np.unique(np.round(np.vstack(edges), 9), axis=0))
         dots = dwg.g(fill="#2451c8")
         for x, y in verts:
             dots.add(dwg.circle(center=(fmt_number(x), fmt_number(y)), r=fmt_number(4.0 * px)))
-        group.add(dots)
+        tess.add(dots)
+    x0, x1, y0, y1 = box
     for i in np.flatnonzero(kind == 1):
         snake = dom.line(i)
-        group.add(dwg.path(d=path_data(snake, True), fill="none", stroke="#d42020",
+        layer = page.layer("snake")
+        layer.add(dwg.path(d=page.d(snake), fill="none", stroke="#d42020",
                            stroke_width=fmt_number(2.5 * px), stroke_linejoin="round"))
         dots = dwg.g(fill="#ffd21f", stroke="#6a5500", stroke_width=fmt_number(0.8 * px))
-        x0, x1, y0, y1 = _box(dom)
         inside = (snake[:, 0] > x0 - 1) & (snake[:, 0] < x1 + 1) & (snake[:, 1] > y0 - 1) & (snake[:, 1] < y1 + 1)
-        for x, y in snake[inside]:
+        for x, y in page.xy(snake[inside]):
             dots.add(dwg.circle(center=(fmt_number(x), fmt_number(y)), r=fmt_number(5.0 * px)))
-        group.add(dots)
+        layer.add(dots)
     return finish(dwg, provenance, title or "snaxels on a tessellation")
 
 
 # -- animations ----------------------------------------------------------------------------------
-def anim_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 600,
-             background: str | None = "#8fb8e0", fill: str = "#ffffff", frame_seconds: float = 0.12,
-             hold_seconds: float = 1.5, crop: bool = True, title: str = "") -> bytes:
+def anim_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 600,
+             units: str = "px", background: str | None = "#8fb8e0", fill: str = "#ffffff",
+             frame_seconds: float = 0.12, hold_seconds: float = 1.5, crop: bool = True, title: str = "") -> bytes:
     """The growth as an animated SVG (SMIL, discrete frames); browsers play it in a loop."""
     dom = _need(domain, "cloud_anim_svg")
     n = dom.n_lines
     if n == 0:
         raise InputError("cloud_anim_svg: the history has no contour")
-    dwg, group, px = new_drawing(_crop_box(dom, 0.06) if crop else _box(dom), width, background)
+    page = Page(_crop_box(dom, 0.06) if crop else _box(dom), width, units)
+    dwg = page.dwg
+    page.sky(background)
+    group = page.layer("growth")
     total = n * frame_seconds + hold_seconds
     for i in range(n):
         t0 = i * frame_seconds / total
         t1 = ((i + 1) * frame_seconds if i < n - 1 else total) / total
-        p = dwg.path(d=path_data(dom.line(i), True), fill=fill, visibility="hidden")
+        p = dwg.path(d=page.d(dom.line(i)), fill=fill, visibility="hidden")
         keys = [0.0, t0, t1, 1.0] if t1 < 1.0 else [0.0, t0, 1.0]
         vals = ["hidden", "visible", "hidden", "hidden"] if t1 < 1.0 else ["hidden", "visible", "visible"]
         if t0 == 0.0:
@@ -190,70 +227,164 @@ def anim_gif(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
 
 
 # -- cloudscape ----------------------------------------------------------------------------------
-def _opened(pts: np.ndarray, r: float) -> list[np.ndarray]:
-    """Morphological opening of the outline (shapely buffers): the shading layers follow the
-    lobes, not the fine fringe, so shifting them does not streak."""
-    from shapely.geometry import Polygon
+def _lobes(pts: np.ndarray, cv: np.ndarray, min_len: float) -> list[tuple[np.ndarray, float]]:
+    """(centre, radius) of the bulge each curve draws (thesis section 3.4: one rounded bulge per
+    curve), for curves at least ``min_len`` long: the centroid of the arc and its chord, with
+    the radius reaching the arc's farthest point."""
+    out = []
+    for _, arc in _curve_pieces(pts, cv):
+        seg = np.hypot(*np.diff(arc, axis=0).T).sum() if len(arc) > 1 else 0.0
+        if seg < min_len:
+            continue
+        c = arc.mean(0)
+        out.append((c, float(np.hypot(*(arc - c).T).max())))
+    return out
 
-    shape = Polygon(pts).buffer(-r, quad_segs=4).buffer(r, quad_segs=4)
-    parts = getattr(shape, "geoms", [shape])
-    return [np.asarray(p.exterior.coords)[:-1] for p in parts if not p.is_empty and p.area > 0]
 
+def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 1000,
+                   units: str = "px", sky: bool = True, sky_top: str = "#3f78c0", sky_horizon: str = "#c9def2",
+                   lit: str = "#ffffff", shade: str = "#9aa6b8", sun_x: float = -0.55, sun_y: float = 0.85,
+                   lobe_min: float = 0.04, perspective: float = 0.45, flatten: float = 0.35,
+                   soft: float = 0.0, title: str = "") -> bytes:
+    """Clouds as an illustrator draws them, back to front, one Inkscape layer per cloud.
 
-def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: int = 1000,
-                   sky_top: str = "#3f78c0", sky_horizon: str = "#c9def2", lit: str = "#ffffff",
-                   shade: str = "#aeb8c8", layers: int = 14, shift: float = 0.22, perspective: float = 0.35,
-                   title: str = "") -> bytes:
-    """Clouds composited back to front with layered shading.
-
-    Each cloud is filled with its shade colour, then ``layers`` copies of its outline, shifted
-    upwards by growing amounts and clipped to the cloud, are filled with lighter colours: points
-    with much cloud below them (lobe tops) end up lit, lobe undersides stay in shade. Far
-    clouds (low cloud__depth) are drawn smaller about their base (``perspective``) and mixed
-    towards the horizon colour (aerial perspective). The outlines themselves are not changed.
+    Each cloud: its silhouette in the shade colour, then one disc per lobe (each snaxel curve is
+    a bulge, thesis section 3.4) filled with a radial gradient whose bright focus leans towards
+    the sun (``sun_x``, ``sun_y``, y up), all clipped to the silhouette, then a grey band along
+    the base (the shadowed underside of a cumulus). Far clouds (low cloud__depth) are drawn
+    smaller and flatter about their base (``perspective``, ``flatten``) and mixed towards the
+    horizon colour (aerial perspective). ``soft`` > 0 blurs the edges by that fraction of a
+    cloud's height; ``sky`` = false leaves the background empty.
     """
     dom = _need(domain, "cloudscape_svg", "cloud__depth")
-    if not 1 <= int(layers) <= 40:
-        raise InputError(f"cloudscape_svg: layers = {layers}, expected 1..40")
-    box = _box(dom)
-    x0, x1, y0, y1 = box
-    dwg, group, px = new_drawing(box, width, None)
-    sky = dwg.linearGradient(start=(0, 0), end=(0, 1), id="sky")
-    sky.add_stop_color(0, sky_top)
-    sky.add_stop_color(1, sky_horizon)
-    dwg.defs.add(sky)
-    group.add(dwg.rect(insert=(x0, y0), size=(x1 - x0, y1 - y0), fill="url(#sky)",
-                       transform=f"translate(0,{fmt_number(y0 + y1)}) scale(1,-1)"))
+    norm = float(np.hypot(sun_x, sun_y))
+    if norm == 0:
+        raise InputError("cloudscape_svg: sun_x and sun_y are both 0 (no sun direction)")
+    sx, sy = sun_x / norm, sun_y / norm
+    page = Page(_box(dom), width, units)
+    dwg = page.dwg
+    if sky:
+        grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id="sky")
+        grad.add_stop_color(0, sky_top)
+        grad.add_stop_color(1, sky_horizon)
+        dwg.defs.add(grad)
+        page.layer("sky").add(dwg.rect(insert=(0, 0), size=(fmt_number(page.w), fmt_number(page.h)), fill="url(#sky)"))
     depth = dom["cloud__depth"]
+    curve = dom["snaxel__curve"] if "snaxel__curve" in dom else np.zeros(len(dom.points), np.int64)
     n = max(int(depth.max()) + 1, 1)
     for i in np.argsort(depth, kind="stable"):
         far = 1.0 - (float(depth[i]) / (n - 1) if n > 1 else 1.0)
-        pts = dom.line(int(i))
-        cx, by = float(pts[:, 0].mean()), float(pts[:, 1].min())
+        a, b = dom.offsets[i], dom.offsets[i + 1]
+        pts, cv = dom.points[a:b], curve[a:b]
+        (qx, qy) = page.xy(np.array([[pts[:, 0].mean(), pts[:, 1].min()]]))[0]
+        height = float(np.ptp(pts[:, 1]))
         sc = 1.0 - perspective * far
-        dy = shift * (float(pts[:, 1].max()) - by) / layers      # total shift: a fraction of the height
-        d = path_data(pts, True)
+        top = _mix(lit, sky_horizon, 0.45 * far)
+        bottom = _mix(shade, sky_horizon, 0.55 * far)
+        mid = _mix(top, bottom, 0.45)
+        tf = (f"translate({fmt_number(qx)},{fmt_number(qy)}) scale({fmt_number(sc)},{fmt_number(sc * (1 - flatten * far))}) "
+              f"translate({fmt_number(-qx)},{fmt_number(-qy)})")
+        attrs: dict[str, Any] = {"transform": tf}
+        if soft > 0:
+            blur = dwg.defs.add(dwg.filter(id=f"soft{i}", x="-10%", y="-10%", width="120%", height="120%"))
+            blur.feGaussianBlur(in_="SourceGraphic", stdDeviation=fmt_number(soft * height))
+            attrs["filter"] = f"url(#soft{i})"
+        layer = page.layer(f"cloud {int(i) + 1} (depth {int(depth[i])})", **attrs)
+        d = page.d(pts)
         clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
         clip.add(dwg.path(d=d))
-        top = _mix(lit, sky_horizon, 0.4 * far)
-        bottom = _mix(shade, sky_horizon, 0.5 * far)
-        outer = dwg.g(transform=f"translate({fmt_number(cx)},{fmt_number(by)}) scale({fmt_number(sc)}) translate({fmt_number(-cx)},{fmt_number(-by)})")
+        lobe = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.35 * sx, 0.5 - 0.35 * sy), id=f"lobe{i}")
+        for off, colour in ((0.0, top), (0.55, mid), (1.0, bottom)):
+            lobe.add_stop_color(off, colour)
+        dwg.defs.add(lobe)
+        base = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"base{i}")
+        base.add_stop_color(0.55, bottom, 0.0)
+        base.add_stop_color(1.0, bottom, 0.85)
+        dwg.defs.add(base)
         g = dwg.g(clip_path=f"url(#cloud{i})")
-        g.add(dwg.path(d=d, fill=bottom))
-        soft = " ".join(path_data(ring, True) for ring in _opened(pts, 0.07 * (float(pts[:, 1].max()) - by)))
-        for k in range(1, int(layers) + 1):
-            g.add(dwg.path(d=soft, fill=_mix(bottom, top, (k / layers) ** 0.6),
-                           transform=f"translate(0,{fmt_number(dy * k)})"))
-        outer.add(g)
-        group.add(outer)
+        g.add(dwg.path(d=d, fill=_mix(top, bottom, 0.3)))                # fringes between lobes: lit
+        lobes = _lobes(pts, cv, lobe_min * height)
+        for c, r in sorted(lobes, key=lambda cr: cr[0][1]):          # low lobes first, tops in front
+            (cx, cy), = page.xy(c[None])
+            g.add(dwg.circle(center=(fmt_number(cx), fmt_number(cy)), r=fmt_number(1.15 * r), fill=f"url(#lobe{i})"))
+        x0, y0 = page.xy(np.array([[pts[:, 0].min(), pts[:, 1].max()]]))[0]
+        g.add(dwg.rect(insert=(fmt_number(x0), fmt_number(y0)), size=(fmt_number(np.ptp(pts[:, 0])), fmt_number(height)),
+                       fill=f"url(#base{i})"))
+        layer.add(g)
     return finish(dwg, provenance, title or "snaxel cloudscape")
 
 
+# -- pen plotters ---------------------------------------------------------------------------------
+def plot_order(lines: list[np.ndarray], closed: list[bool], start: np.ndarray) -> list[np.ndarray]:
+    """Greedy nearest-neighbour path order from ``start``; a closed outline starts at its point
+    nearest to the pen, an open line may be drawn backwards. Cuts pen-up travel (one numpy pass
+    per line over the remaining lines' end points)."""
+    todo = list(range(len(lines)))
+    pen = np.asarray(start, float)
+    out = []
+    while todo:
+        best, best_d, best_k, rev = -1, np.inf, 0, False
+        for j in todo:
+            p = lines[j]
+            if closed[j]:
+                dd = np.hypot(*(p - pen).T)
+                k = int(np.argmin(dd))
+                cand = (dd[k], k, False)
+            else:
+                d0, d1 = float(np.hypot(*(p[0] - pen))), float(np.hypot(*(p[-1] - pen)))
+                cand = (d0, 0, False) if d0 <= d1 else (d1, 0, True)
+            if cand[0] < best_d:
+                best, (best_d, best_k, rev) = j, cand
+        p = lines[best]
+        if closed[best]:
+            p = np.vstack([np.roll(p, -best_k, axis=0), p[best_k:best_k + 1]])
+        elif rev:
+            p = p[::-1]
+        out.append(p)
+        pen = p[-1]
+        todo.remove(best)
+    return out
+
+
+def plotter_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 200,
+                units: str = "mm", pen_width: float = 0.3, process: bool = False, smooth: int = 0,
+                title: str = "") -> bytes:
+    """Stroke-only outlines for a pen plotter: no fill, no background, paths ordered to cut
+    pen-up travel. The final outlines (every cloud of a cloudscape, or the last contour of a
+    ``{cloud}_history``) go on layer "outline"; with ``process`` the earlier contours of a
+    history go on layer "process" (a second pen). ``pen_width`` is in ``units``."""
+    dom = _need(domain, "cloud_plotter_svg")
+    if dom.n_lines == 0:
+        raise InputError("cloud_plotter_svg: the domain has no line to plot")
+    if not 0 <= int(smooth) <= 6:
+        raise InputError(f"cloud_plotter_svg: smooth = {smooth} passes, expected 0..6")
+    history = "snapshot__step" in dom
+    if process and not history:
+        raise InputError("cloud_plotter_svg: process = true needs a {cloud}_history domain (earlier contours)")
+    final = [dom.n_lines - 1] if history else list(range(dom.n_lines))
+    pens = [("outline", final)]
+    if process:
+        pens.append(("process", list(range(dom.n_lines - 1))))
+    page = Page(_box(dom), width, units)
+    dwg = page.dwg
+    pen = np.zeros(2)
+    for name, idx in pens:
+        layer = page.layer(name, fill="none", stroke="#000000" if name == "outline" else "#1f5fbf",
+                           stroke_width=fmt_number(pen_width * page.unit), stroke_linejoin="round",
+                           stroke_linecap="round")
+        lines = [page.xy(chaikin(dom.line(i), bool(dom.closed[i]), int(smooth))) for i in idx]
+        for p in plot_order(lines, [bool(dom.closed[i]) for i in idx], pen):
+            layer.add(dwg.path(d=path_data(p, False)))
+            pen = p[-1]
+    return finish(dwg, provenance, title or "snaxel cloud (plotter)")
+
+
 EXPORTERS: list[tuple[str, str, Any, str]] = [
-    ("cloud_svg", ".svg", cloud_svg, "cloud outline as one filled closed SVG path (stroke, gradient, smooth)"),
-    ("cloud_process_svg", ".svg", process_svg, "nested earlier contours, one colour per curve"),
+    ("cloud_svg", ".svg", cloud_svg, "cloud outline as one filled closed path, y-down, sky and cloud layers"),
+    ("cloud_process_svg", ".svg", process_svg, "nested earlier contours, one colour per curve, a layer each"),
     ("cloud_view_svg", ".svg", view_svg, "Figure 1.2: tessellation, snake segments and snaxels"),
     ("cloud_anim_svg", ".svg", anim_svg, "animated SVG of the growth (from {cloud}_history)"),
     ("cloud_gif", ".gif", anim_gif, "animated GIF of the growth (from {cloud}_history)"),
-    ("cloudscape_svg", ".svg", cloudscape_svg, "several clouds back to front with layered shading"),
+    ("cloudscape_svg", ".svg", cloudscape_svg, "illustrated cloudscape: lobe gradients, flat shaded bases, a layer per cloud"),
+    ("cloud_plotter_svg", ".svg", plotter_svg, "stroke-only outlines for pen plotters, ordered, pens as layers"),
 ]

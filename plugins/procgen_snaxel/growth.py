@@ -9,10 +9,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from shapely.geometry import Polygon
 
 from procgen.geometry import signed_area
 
-from .config import GrowthConfig
+from .params import GrowthParams
 from .snake import CURVE, ELEN, POS, T, U, UNVISITED, V, Snake
 from .speeds import base_speed, blend, circular_profile, effect_coefficient, linear_profile
 from .topology import Topology
@@ -62,21 +63,17 @@ class Stats:
 class CloudGrowth:
     """A single snake growing one cloud on a fixed tessellation."""
 
-    def __init__(self, topo: Topology, cfg: GrowthConfig, rng: np.random.Generator,
+    def __init__(self, topo: Topology, cfg: GrowthParams, rng: np.random.Generator,
                  bounds: tuple[float, float, float, float] | None = None,
                  marked: np.ndarray | None = None) -> None:
         self.cfg = cfg
-        self.limits = cfg.check()
+        self.limits = cfg.check_growth()
         self.topo = topo
-        pts = topo.points
-        if bounds is None:
-            bounds = (float(pts[:, 0].min()), float(pts[:, 1].min()),
-                      float(pts[:, 0].max()), float(pts[:, 1].max()))
+        if bounds is None and not topo.unbounded:
+            pts = topo.points
+            bounds = (float(pts[:, 0].min()), float(pts[:, 1].min()), float(pts[:, 0].max()), float(pts[:, 1].max()))
         self.bounds = bounds
-        x0, y0, x1, y1 = bounds
-        m = cfg.margin
-        blocked = (pts[:, 0] < x0 + m) | (pts[:, 0] > x1 - m) | (pts[:, 1] < y0 + m) | (pts[:, 1] > y1 - m)
-        self.snake = Snake(topo, blocked)
+        self.snake = Snake(topo, self.blocks)
         # independent streams: curve speeds, split points, cluster choices (digest property 22)
         self.rng_speed, self.rng_split, self.rng_cluster = rng.spawn(3)
         self.vb = np.zeros(0)
@@ -89,14 +86,10 @@ class CloudGrowth:
             cand = np.flatnonzero(marked & ~self.snake.blocked)
             if len(cand) == 0:
                 raise ValueError("the sketch marks no vertex inside the margin")
-            target = np.asarray(cfg.source if cfg.source is not None else pts[cand].mean(0))
-            source = int(cand[np.argmin(np.hypot(*(pts[cand] - target).T))])
+            target = np.asarray(cfg.source if cfg.source is not None else topo.points[cand].mean(0))
+            source = int(cand[np.argmin(np.hypot(*(topo.points[cand] - target).T))])
         else:
-            target = np.asarray(cfg.source if cfg.source is not None else [(x0 + x1) / 2, (y0 + y1) / 2])
-            if not (x0 + m <= target[0] <= x1 - m and y0 + m <= target[1] <= y1 - m):
-                raise ValueError(f"source {list(target)} lies outside the domain margin {bounds}")
-            free = np.flatnonzero(~self.snake.blocked)
-            source = int(free[np.argmin(np.hypot(*(pts[free] - target).T))])
+            source = self._source_vertex()
         self.source = source
         first = self._new_curve(cluster=0)
         self.snake.start(source, cfg.init_offset, first)
@@ -110,6 +103,41 @@ class CloudGrowth:
         self.snapshots: list[Snapshot] = []
         self.snapshot_every = cfg.snapshot_every
         self.last_speed = np.zeros(len(self.snake))
+
+    def blocks(self, p: np.ndarray) -> np.ndarray:
+        """Vertices a snaxel must not enter: the domain margin (Figure 3.22) and, with a
+        condensation level, everything below it (the flat base of a cumulus)."""
+        out = np.zeros(len(p), bool)
+        if self.bounds is not None:
+            x0, y0, x1, y1 = self.bounds
+            m = self.cfg.margin
+            out |= (p[:, 0] < x0 + m) | (p[:, 0] > x1 - m) | (p[:, 1] < y0 + m) | (p[:, 1] > y1 - m)
+        if self.cfg.condensation_level is not None:
+            out |= p[:, 1] < self.cfg.condensation_level
+        return out
+
+    def _source_vertex(self) -> int:
+        """The free vertex nearest to ``source`` (default: the domain centre, or the origin)."""
+        cfg, topo = self.cfg, self.topo
+        if cfg.source is not None:
+            target = np.asarray(cfg.source, float)
+        elif self.bounds is not None:
+            x0, y0, x1, y1 = self.bounds
+            target = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        else:
+            target = np.zeros(2)
+        if self.blocks(target[None])[0]:
+            raise ValueError(f"source {list(target)} lies in the blocked margin or below the condensation level")
+        if topo.ensure_box(target[0], target[1], target[0], target[1]):
+            self.sync()
+        free = np.flatnonzero(~self.snake.blocked & topo.ready)
+        return int(free[np.argmin(np.hypot(*(topo.points[free] - target).T))])
+
+    def sync(self) -> None:
+        """Per-vertex arrays follow a tiled tessellation that has added vertices."""
+        self.snake.sync()
+        if self.marked is not None and len(self.marked) < self.topo.n_vertices:
+            self.marked = np.concatenate([self.marked, np.zeros(self.topo.n_vertices - len(self.marked), bool)])
 
     # -- curve table ------------------------------------------------------------------------
     def _new_curve(self, cluster: int, copy_of: int | None = None) -> int:
@@ -285,6 +313,8 @@ class CloudGrowth:
             return False
         cfg = self.cfg
         snake = self.snake
+        if self.topo.ensure(snake.ints[:, V]):      # lazy tiles: ready every vertex a snaxel heads to
+            self.sync()
         if self.snapshot_every and self.stats.steps % self.snapshot_every == 0:
             self.snapshot()
         xy = snake.xy()
@@ -384,7 +414,9 @@ class CloudGrowth:
             self.stats.cluster_log.append({"cluster": self.active + 1, "end": "no seed curve left"})
             self.done = True
             return
-        r = int(cand[int(self.rng_cluster.integers(len(cand)))])
+        w = self.seed_weights(runs, cand)
+        r = int(cand[int(self.rng_cluster.choice(len(cand), p=w))]) if w is not None else \
+            int(cand[int(self.rng_cluster.integers(len(cand)))])
         self.active += 1
         cid = int(runs.curve[r])
         self.cluster_of[cid] = self.active
@@ -394,6 +426,31 @@ class CloudGrowth:
         self.g = float(self.rng_cluster.uniform(cfg.g_min, cfg.g_max))
         self.cluster_start = self.stats.steps
         self.best_t, self.best_step = t0, self.stats.steps
+
+    def seed_weights(self, runs: Runs, cand: np.ndarray) -> np.ndarray | None:
+        """Probabilities of the candidate seed curves under ``seed_policy`` (None: uniform, the
+        thesis's rule). The thesis names the choice of the next cluster's seed curve as what decides
+        the silhouette and leaves its control to future work (Chapter 5); here a curve's weight is
+        exp(seed_bias * score), the score in [0, 1] measured on the curve's mid-point against the
+        cloud's box: height above the base (towers), closeness to the centroid (compact heaps) or
+        horizontal distance from the centroid (spreading sheets)."""
+        policy, bias = self.cfg.seed_policy, self.cfg.seed_bias
+        if policy == "uniform" or bias == 0.0 or len(cand) < 2:
+            return None
+        xy = self.snake.xy()
+        mid = np.column_stack([np.bincount(runs.rid, xy[:, k], minlength=len(runs.starts)) for k in (0, 1)])
+        mid = mid[cand] / runs.count[cand, None]
+        lo, hi = xy.min(0), xy.max(0)
+        size = np.maximum(hi - lo, 1e-9)
+        centre = np.asarray(Polygon(xy).centroid.coords[0])
+        if policy == "height":
+            score = (mid[:, 1] - lo[1]) / size[1]
+        elif policy == "centroid":
+            score = 1.0 - np.hypot(*((mid - centre) / size).T) / np.sqrt(0.5)
+        else:   # spread
+            score = np.abs(mid[:, 0] - centre[0]) / (0.5 * size[0])
+        w = np.exp(bias * (np.clip(score, 0.0, 1.0) - 1.0))
+        return w / w.sum()
 
     # -- outputs ----------------------------------------------------------------------------
     def snapshot(self) -> None:
@@ -420,4 +477,16 @@ class CloudGrowth:
             "clusters_stalled": self.stats.clusters_stalled, "sketch_steps": self.stats.sketch_steps,
             "area": signed_area(xy), "perimeter": runs.perimeter,
             "bbox": [float(xy[:, 0].min()), float(xy[:, 1].min()), float(xy[:, 0].max()), float(xy[:, 1].max())],
+            **shape_statistics(xy),
+            "area_history": [round(signed_area(s.xy), 3) for s in self.snapshots],
+            "perimeter_history": [round(float(np.hypot(*(np.roll(s.xy, -1, 0) - s.xy).T).sum()), 3)
+                                  for s in self.snapshots],
         }
+
+
+def shape_statistics(xy: np.ndarray) -> dict[str, float]:
+    """Aspect ratio (box width / height) and solidity (area / convex-hull area) of an outline:
+    the two numbers the cloud-type presets are held to."""
+    poly = Polygon(xy)
+    w, h = np.ptp(xy, axis=0)
+    return {"aspect": round(float(w / h), 4), "solidity": round(float(poly.area / poly.convex_hull.area), 4)}

@@ -8,123 +8,94 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from procgen import InputError, Polylines, RuleBase, State, TriMesh, param
+from procgen import InputError, Polylines, State, TriMesh, param
 
-from .config import GrowthConfig
+from .fractal import ensemble_dimension
 from .growth import CloudGrowth, Snapshot
+from .params import _EXAMPLE_GROWTH, GrowthParams
 from .sketch import check_inside, mark_vertices, strokes_from_lists, strokes_from_svg
-from .tables import THESIS_TABLES
-from .topology import Topology, build_topology
+from .tiles import TiledTopology
+from .topology import Topology, mesh_topology
 
 SKETCH_DIR = Path(__file__).parent / "sketches"
 
-# a tiny tessellation and a scaled-down Table 4.5 for the contract suite's example runs
-_EXAMPLE_MESH: tuple[dict[str, Any], ...] = (
-    {"rule": "points.poisson_disk", "params": {"width": 100.0, "height": 100.0, "radius": 2.0}},
-    {"rule": "mesh.delaunay"},
-)
-_EXAMPLE_GROWTH: dict[str, Any] = {"bounds": [0.0, 0.0, 100.0, 100.0], "table": [[0, 5, 40], [5, 8]], "t_max": 5.0,
-                                   "g_min": 12.0, "g_max": 14.0, "n_c": 2, "margin": 3.0, "c_min": 0.5}
 
-
-@dataclass(kw_only=True)
-class GrowthParams(RuleBase):
-    """The thesis's parameters (Table 4.2 most common row as defaults) plus the ones it leaves open."""
-
-    mesh: str = param("tessellation", doc="TriMesh (Poisson-disk + Delaunay) the snaxels move on")
-    bounds: list[float] | None = param(None, doc="drawing domain [x0, y0, x1, y1]; None: the mesh's bounding box")
-    r: float = param(0.1, ge=0.0, le=10.0, units="1/length", doc="influence rate: k = exp(-r t) (Eq 3.5)")
-    w_s: float = param(1.0, ge=0.0, le=1.0, doc="weight of the base speed (Eq 3.6)")
-    v_min: float = param(5.0, gt=0.0, units="length/time", doc="lower end of each curve's random speeds")
-    v_max: float = param(30.0, gt=0.0, units="length/time", doc="upper end of each curve's random speeds")
-    c_min: float = param(3.0, ge=0.0, units="length", doc="curves shorter than this merge into a neighbour")
-    G_max: float = param(10.0, gt=0.0, doc="projection segment of the circular scheme (shape knob with v)")
-    table: list[list[float]] = param([list(r) for r in THESIS_TABLES["4.5"]],
-                                     doc="length-limits table: rows [from, to, max length], last may be [from, max]")
-    t_min: float = param(0.0, ge=0.0, units="length", doc="cluster reset distance, lower end")
-    t_max: float = param(150.0, ge=0.0, units="length", doc="cluster reset distance, upper end")
-    g_min: float = param(240.0, gt=0.0, units="length", doc="cluster allowed growth, lower end")
-    g_max: float = param(250.0, gt=0.0, units="length", doc="cluster allowed growth, upper end")
-    n_c: int = param(7, ge=1, le=1000, doc="number of clusters to grow")
-    details: str = param("circular", choices=("circular", "linear"), doc="details-phase speed profile")
-    base: str = param("blend", choices=("blend", "sum", "off"),
-                      doc="blend (Eq 3.6), sum (Fig 3.13: b_v + l_v) or off (Fig 3.15b: l_v only)")
-    seed_from: str = param("cluster", choices=("cluster", "any"),
-                           doc="next cluster's seed: a curve of the cluster just stopped (thesis) or of the whole snake")
-    dt: float = param(0.05, gt=0.0, le=10.0, units="time", doc="Euler time step")
-    source: list[float] | None = param(None, doc="[x, y] of the source vertex; None: domain centre")
-    margin: float = param(10.0, ge=0.0, units="length", doc="snaxels heading closer than this to the border stop")
-    init_offset: float = param(0.05, gt=0.0, lt=0.5, doc="initial snaxels' offset along their edges (fraction)")
-    max_steps: int = param(20000, ge=1, doc="hard cap on Euler steps")
-    guard_steps: int = param(200, ge=1, doc="progress guard: steps allowed without guard_delta of progress")
-    guard_delta: float = param(1.0, gt=0.0, units="length", doc="progress guard: required travel gain")
-    cluster_max_steps: int = param(5000, ge=1, doc="cap on steps per cluster")
-    snapshot_every: int = param(0, ge=0, doc="record the contour every K steps for the process figure; 0: auto")
-    strokes: list[list[float]] | None = param(None, doc="sketch strokes, each [x0, y0, x1, y1, ...] in domain units")
-    sketch_svg: str | None = param(None, doc="SVG whose paths are the sketch (absolute, cwd-relative or shipped name)")
-    c_t: float = param(1.0, ge=0.0, le=20.0, doc="thickness of the initial growth around the sketch (edge lengths)")
-    sketch_speed: float | None = param(None, gt=0.0, units="length/time", doc="engulfing speed; None: v_max")
-
-    def growth_config(self) -> GrowthConfig:
-        names = {f.name for f in dataclasses.fields(GrowthConfig)}
-        return GrowthConfig(**{k: v for k, v in self.param_values().items() if k in names})
+class GrowthRule(GrowthParams):
+    """What both snaxel rules do with the parameters: checks, the tessellation, one growth."""
 
     def validate(self) -> None:
-        cfg = self.growth_config()
-        cfg.check()
+        super().validate()
         if self.bounds is not None:
-            if len(self.bounds) != 4 or not (self.bounds[2] > self.bounds[0] and self.bounds[3] > self.bounds[1]):
-                raise ValueError(f"bounds {self.bounds} must be [x0, y0, x1, y1] with x1 > x0 and y1 > y0")
-        if cfg.sketch:
+            x0, y0, x1, y1 = self.bounds
+            room = min(x1 - x0, y1 - y0) - 2.0 * self.margin
+            if room < self.g_min:
+                raise ValueError(f"bounds {self.bounds} leave {room:g} inside the margin, less than one cluster's "
+                                 f"growth g_min = {self.g_min:g}: too small for this cloud (enlarge bounds or drop them)")
+        if self.sketch:
             if self.bounds is None:
                 raise ValueError("sketch mode needs bounds = [x0, y0, x1, y1] so the sketch can be checked")
             check_inside(self.sketch_strokes(self.recipe_dir), self.domain_box())
-        elif self.source is not None and self.bounds is not None:
-            x0, y0, x1, y1 = self.bounds
+        elif self.source is not None:
             m = self.margin
-            if not (x0 + m <= self.source[0] <= x1 - m and y0 + m <= self.source[1] <= y1 - m):
-                raise ValueError(f"source {self.source} is outside the domain {self.bounds} minus margin {m:g}")
+            if self.bounds is not None:
+                x0, y0, x1, y1 = self.bounds
+                if not (x0 + m <= self.source[0] <= x1 - m and y0 + m <= self.source[1] <= y1 - m):
+                    raise ValueError(f"source {self.source} is outside the domain {self.bounds} minus margin {m:g}")
+            if self.condensation_level is not None and self.source[1] < self.condensation_level:
+                raise ValueError(f"source {self.source} lies below condensation_level = {self.condensation_level:g}")
 
     # -- helpers ---------------------------------------------------------------------------
-    def domain_box(self, topo: Topology | None = None) -> tuple[float, float, float, float]:
-        """(x0, x1, y0, y1) as the core's domains store bounds."""
+    def domain_box(self, xy: np.ndarray | None = None) -> tuple[float, float, float, float]:
+        """(x0, x1, y0, y1) as the core's domains store bounds: ``bounds``, else the outline's
+        box grown by 5% (unbounded growth)."""
         if self.bounds is not None:
             x0, y0, x1, y1 = self.bounds
-        else:
-            assert topo is not None
-            (x0, y0), (x1, y1) = topo.points.min(0), topo.points.max(0)
-        return (float(x0), float(x1), float(y0), float(y1))
+            return (float(x0), float(x1), float(y0), float(y1))
+        assert xy is not None
+        (x0, y0), (x1, y1) = xy.min(0), xy.max(0)
+        pad = 0.05 * max(x1 - x0, y1 - y0, 1e-9)
+        return (float(x0 - pad), float(x1 + pad), float(y0 - pad), float(y1 + pad))
 
     def sketch_strokes(self, base_dir: Path | None = None) -> list[np.ndarray]:
         if self.strokes is not None:
             return strokes_from_lists(self.strokes)
         return strokes_from_svg(resolve_sketch(str(self.sketch_svg), base_dir), self.domain_box())
 
-    def make_growth(self, state: State, rng: np.random.Generator, source: list[float] | None = None,
-                    topo: Topology | None = None) -> tuple[CloudGrowth, Topology]:
-        if topo is None:
-            mesh = state.get(self.mesh, TriMesh)
-            try:
-                topo = build_topology(mesh.vertices[:, :2], mesh.faces)
-            except InputError as exc:
-                raise InputError(f"{self.name}: mesh {self.mesh!r}: {exc}") from None
-        cfg = self.growth_config()
+    def make_topology(self, state: State, rng: np.random.Generator) -> Topology:
+        """The eager mesh named by ``mesh``, or lazy tiles seeded from ``rng``."""
+        if self.mesh is None:
+            return TiledTopology(self.radius, self.tile_side, np.random.SeedSequence(rng.integers(0, 2**32, 4)))
+        mesh = state.get(self.mesh, TriMesh)
+        try:
+            return mesh_topology(mesh)
+        except InputError as exc:
+            raise InputError(f"{self.name}: mesh {self.mesh!r}: {exc}") from None
+
+    def make_growth(self, state: State, rng: np.random.Generator, topo: Topology,
+                    source: list[float] | None = None) -> CloudGrowth:
+        cfg = self
         if source is not None:
-            cfg.source = source
-        box = self.domain_box(topo)
+            level = source[1] - self.base_depth if getattr(self, "base_depth", None) is not None else None
+            cfg = dataclasses.replace(self, source=source, condensation_level=level)
         if cfg.speed_cap * cfg.dt > topo.min_edge:
             raise InputError(f"{self.name}: dt = {cfg.dt:g} lets a snaxel travel {cfg.speed_cap * cfg.dt:g} per step, "
                              f"more than the shortest edge {topo.min_edge:.3g}; use dt <= {topo.min_edge / cfg.speed_cap:.3g}")
         marked = None
+        bounds = None if self.bounds is None else tuple(map(float, self.bounds))
         try:
             if cfg.sketch:
-                marked = mark_vertices(topo, self.sketch_strokes(state.base_dir), cfg.c_t)
-            growth = CloudGrowth(topo, cfg, rng, bounds=(box[0], box[2], box[1], box[3]), marked=marked)
+                strokes = self.sketch_strokes(state.base_dir)
+                allp = np.vstack(strokes)
+                pad = (cfg.c_t + 2.0) * max(topo.mean_edge, 2.0 * topo.min_edge)
+                (x0, y0), (x1, y1) = allp.min(0) - pad, allp.max(0) + pad
+                topo.ensure_box(x0, y0, x1, y1)
+                marked = mark_vertices(topo, strokes, cfg.c_t)
+            growth = CloudGrowth(topo, cfg, rng, bounds=bounds, marked=marked)  # type: ignore[arg-type]
         except ValueError as exc:
             raise InputError(f"{self.name}: {exc}") from None
         if growth.snapshot_every == 0:
             growth.snapshot_every = max(1, int(round(4.0 * topo.mean_edge / (cfg.v_max * cfg.dt))))
-        return growth, topo
+        return growth
 
 
 def resolve_sketch(name: str, base_dir: Path | None = None) -> Path:
@@ -163,9 +134,7 @@ def view_domain(topo: Topology, xy: np.ndarray, window: list[float] | None,
         window = [c[0] - h, c[1] - h, c[0] + h, c[1] + h]
     x0, y0, x1, y1 = window
     p = topo.points
-    src = np.repeat(np.arange(topo.n_vertices), np.diff(topo.ring_ptr))
-    e = np.column_stack([src, topo.ring])
-    e = e[e[:, 0] < e[:, 1]]
+    e = topo.edges()
     inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
     e = e[inside[e[:, 0]] | inside[e[:, 1]]]
     lines = [p[[a, b]] for a, b in e]
@@ -180,7 +149,7 @@ def view_domain(topo: Topology, xy: np.ndarray, window: list[float] | None,
 
 
 @dataclass(kw_only=True)
-class GrowCloud(GrowthParams):
+class GrowCloud(GrowthRule):
     """Grow one 2-D cumulus outline with snaxels on a tessellation (thesis seed 004).
 
     One iteration is one Euler step of the whole snake; the run ends (step returns False) once
@@ -192,9 +161,8 @@ class GrowCloud(GrowthParams):
 
     name: ClassVar[str] = "snaxel.grow"
     default_iterations: ClassVar[int] = 100000
-    example: ClassVar[tuple[dict[str, Any], ...]] = _EXAMPLE_MESH + (
+    example: ClassVar[tuple[dict[str, Any], ...]] = (
         {"rule": "snaxel.grow", "params": _EXAMPLE_GROWTH, "until": "stable"},)
-    uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
     creates: ClassVar[dict[str, str]] = {"{cloud}": "Polylines", "{cloud}_history": "Polylines",
                                          "{cloud}_view": "Polylines"}
 
@@ -202,18 +170,32 @@ class GrowCloud(GrowthParams):
     view_window: list[float] | None = param(None, doc="[x0, y0, x1, y1] of the Figure 1.2 close-up; None: auto")
 
     def setup(self, state: State) -> None:
-        self._growth, self._topo = self.make_growth(state, state.rng())
-        self._box = self.domain_box(self._topo)
+        rng = state.rng()
+        self._topo = self.make_topology(state, rng)
+        self._growth = self.make_growth(state, rng, self._topo)
         self.publish(state)
 
     def publish(self, state: State) -> None:
         """Copy the snake into the {cloud} Polylines (the runner calls it before each frame)."""
         g = self._growth
         c = g.snake.ints[:, 2]
-        state.add_domain(self.cloud, contour_domain(g.snake.xy(), c, g.cluster_of[c], self._box))
+        xy = g.snake.xy()
+        self._box = self.domain_box(xy)
+        state.add_domain(self.cloud, contour_domain(xy, c, g.cluster_of[c], self._box))
 
     def step(self, state: State) -> bool:
         return self._growth.step()
+
+    def ensemble_statistics(self, reports: list[dict]) -> dict[str, float]:
+        """Over a sweep's runs: Lovejoy's area-perimeter dimension D of all recorded contours, and
+        the band of aspect ratio and solidity of the final outlines (``procgen sweep``)."""
+        c = self.cloud
+        out = ensemble_dimension([r[f"{c}.area_history"] for r in reports], [r[f"{c}.perimeter_history"] for r in reports])
+        for key in ("aspect", "solidity"):
+            v = [r[f"{c}.{key}"] for r in reports]
+            out.update({f"{key}_min": min(v), f"{key}_median": round(float(np.median(v)), 4), f"{key}_max": max(v)})
+        out["runs"] = len(reports)
+        return out
 
     def finish(self, state: State) -> None:
         g = self._growth
@@ -221,6 +203,8 @@ class GrowCloud(GrowthParams):
         self.publish(state)
         state.add_domain(f"{self.cloud}_history", history_domain(g.snapshots, self._box))
         state.add_domain(f"{self.cloud}_view", view_domain(self._topo, g.snake.xy(), self.view_window, self._box))
+        if isinstance(self._topo, TiledTopology):
+            state.report(f"{self.cloud}.tiles", self._topo.n_tiles)
         for k, v in g.report().items():
             state.report(k if k in ("N_s", "N_v") else f"{self.cloud}.{k}", v)
         state.report(f"{self.cloud}.clusters", g.stats.cluster_log)
@@ -228,7 +212,7 @@ class GrowCloud(GrowthParams):
 
 
 @dataclass(kw_only=True)
-class Cloudscape(GrowthParams):
+class Cloudscape(GrowthRule):
     """Several clouds grown with their own seeds and sources, for back-to-front compositing.
 
     The thesis's section 1.2 idea (layering separately grown outlines), which it never built:
@@ -237,14 +221,15 @@ class Cloudscape(GrowthParams):
     """
 
     name: ClassVar[str] = "snaxel.cloudscape"
-    example: ClassVar[tuple[dict[str, Any], ...]] = _EXAMPLE_MESH + (
+    example: ClassVar[tuple[dict[str, Any], ...]] = (
         {"rule": "snaxel.cloudscape", "params": dict(_EXAMPLE_GROWTH, n_clouds=2, margin=20.0)},)
-    uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
     creates: ClassVar[dict[str, str]] = {"{scape}": "Polylines"}
 
     scape: str = param("cloudscape", doc="name of the Polylines holding every cloud outline")
     n_clouds: int = param(4, ge=1, le=64, doc="number of clouds")
     sources: list[list[float]] | None = param(None, doc="[[x, y], ...] one per cloud; None: random, far ones higher")
+    base_depth: float | None = param(None, gt=0.0, units="length",
+                                     doc="flat bases: each cloud's condensation level lies this far below its source")
 
     def validate(self) -> None:
         super().validate()
@@ -255,10 +240,13 @@ class Cloudscape(GrowthParams):
 
     def step(self, state: State) -> bool:
         rng = state.rng()
-        mesh = state.get(self.mesh, TriMesh)
-        (x0, y0), (x1, y1) = mesh.vertices[:, :2].min(0), mesh.vertices[:, :2].max(0)
+        topo = self.make_topology(state, rng)
         if self.bounds is not None:
             x0, y0, x1, y1 = self.bounds
+        elif not topo.unbounded:
+            (x0, y0), (x1, y1) = topo.points.min(0), topo.points.max(0)
+        elif self.sources is None:
+            raise InputError(f"{self.name}: unbounded growth needs bounds or sources to place the clouds")
         m = self.margin
         if self.sources is not None:
             sources = [list(map(float, s)) for s in self.sources]
@@ -267,20 +255,19 @@ class Cloudscape(GrowthParams):
             xs = (rng.permutation(self.n_clouds) + rng.uniform(0.3, 0.7, self.n_clouds)) / self.n_clouds
             sources = [[x0 + m + (x1 - x0 - 2 * m) * float(xs[i]), y0 + m + (y1 - y0 - 2 * m) * float(depth_y[i])]
                        for i in range(self.n_clouds)]
-        lines, stats = [], []
-        topo = None
-        for i, (child, src) in enumerate(zip(rng.spawn(self.n_clouds), sources)):
-            growth, topo = self.make_growth(state, child, source=src, topo=topo)
+        lines, curves, stats = [], [], []
+        for child, src in zip(rng.spawn(self.n_clouds), sources):
+            growth = self.make_growth(state, child, topo, source=src)
             growth.snapshot_every = 0
             growth.run()
             lines.append(growth.snake.xy())
+            curves.append(growth.snake.ints[:, 2].copy())
             stats.append(growth.report())
-        assert topo is not None
-        box = self.domain_box(topo)
-        dom = Polylines.from_list(lines, closed=True, bounds=box)
+        dom = Polylines.from_list(lines, closed=True, bounds=self.domain_box(np.vstack(lines)))
         dom.add_field("cloud__depth", np.arange(self.n_clouds), at="line", doc="0 = farthest, drawn first")
+        dom.add_field("snaxel__curve", np.concatenate(curves), at="point", doc="curve id of each snaxel (per cloud)")
         state.add_domain(self.scape, dom)
-        state.report("N_v", stats[0]["N_v"])
+        state.report("N_v", topo.n_vertices)
         state.report("N_s", [s["N_s"] for s in stats])
         state.report(f"{self.scape}.steps", [s["steps"] for s in stats])
         return True

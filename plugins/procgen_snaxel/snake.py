@@ -17,7 +17,7 @@ time in Python (each costs a few O(N_s) numpy passes; the step itself is vectori
 """
 from __future__ import annotations
 
-from collections import deque
+from typing import Callable
 
 import numpy as np
 
@@ -37,10 +37,12 @@ class TopologyBug(RuntimeError):
 class Snake:
     """Chain state plus per-vertex visit state; see the module docstring."""
 
-    def __init__(self, topo: Topology, blocked: np.ndarray, min_offset: float = 1e-3) -> None:
+    def __init__(self, topo: Topology, blocks: Callable[[np.ndarray], np.ndarray], min_offset: float = 1e-3) -> None:
         self.topo = topo
-        self.blocked = np.asarray(blocked, bool) | topo.hull
-        self.state = np.zeros(topo.n_vertices, np.int8)
+        self.blocks = blocks      # points (k, 2) -> True where a snaxel heading there must stop
+        self.blocked = np.zeros(0, bool)
+        self.state = np.zeros(0, np.int8)
+        self.sync()
         self.min_offset = float(min_offset)   # children start at >= this fraction of their edge
         self.ints = np.zeros((0, 3), np.int64)
         self.flts = np.zeros((0, 7), np.float64)
@@ -51,6 +53,14 @@ class Snake:
         self.hole_rule_disagreements = 0   # thesis "more snaxels = snake" rule vs signed area
 
     # -- construction -------------------------------------------------------------------
+    def sync(self) -> None:
+        """Extend the per-vertex arrays to vertices a tiled tessellation has added."""
+        n0, n = len(self.state), self.topo.n_vertices
+        if n > n0:
+            self.state = np.concatenate([self.state, np.zeros(n - n0, np.int8)])
+            new = np.asarray(self.blocks(self.topo.points[n0:]), bool) | self.topo.hull[n0:]
+            self.blocked = np.concatenate([self.blocked, new])
+
     def start(self, source: int, offset: float, curve: int = 0) -> None:
         """Initial snake (A3): the source is visited, one snaxel per incident edge, CCW."""
         if self.blocked[source]:
@@ -246,20 +256,18 @@ class Snake:
         return True
 
     def _fill(self, seeds: np.ndarray) -> None:
-        """Seal the unvisited vertices enclosed by a discarded hole loop (breadth-first).
-
-        Per-vertex Python loop: holes are small and rare (measured ~1% of births).
-        """
-        ptr, ring, state = self.topo.ring_ptr, self.topo.ring, self.state
-        queue = deque(int(s) for s in np.unique(seeds) if state[s] == UNVISITED)
-        for s in queue:
-            state[s] = FILLED
-        while queue:
-            x = queue.popleft()
-            self.filled += 1
-            for y in ring[ptr[x]:ptr[x + 1]]:
-                if state[y] == UNVISITED and self.topo.hull[y]:
-                    raise TopologyBug("a discarded hole loop leaks to the mesh boundary")
-                if state[y] == UNVISITED:
-                    state[y] = FILLED
-                    queue.append(int(y))
+        """Seal the unvisited vertices enclosed by a discarded hole loop (breadth-first, one
+        whole frontier at a time; a tiled tessellation readies the frontier's rings first)."""
+        topo = self.topo
+        front = np.unique(seeds)
+        front = front[self.state[front] == UNVISITED]
+        while len(front):
+            if topo.ensure(front):
+                self.sync()
+            self.state[front] = FILLED
+            self.filled += len(front)
+            nb = np.unique(topo.rings_of(front)[1])
+            nb = nb[self.state[nb] == UNVISITED]
+            if np.any(topo.hull[nb]):
+                raise TopologyBug("a discarded hole loop leaks to the mesh boundary")
+            front = nb

@@ -1,11 +1,13 @@
-"""Poisson-disk + Delaunay tessellation for code paths that grow clouds outside a recipe step
-(cloudscapes, benchmarks, tests). Recipes use the core rules points.poisson_disk + mesh.delaunay,
-which call the same sampler and the same Qhull triangulation."""
+"""A whole-rectangle Poisson-disk + Delaunay tessellation for code that grows clouds outside a
+recipe (tests, benchmarks): the same sampler and Qhull triangulation as the core rules
+points.poisson_disk + mesh.delaunay, eagerly, as the thesis does (section 3.1)."""
 from __future__ import annotations
 
 import numpy as np
 
-from .topology import Topology, build_topology
+from procgen import TriMesh
+
+from .topology import Topology, mesh_topology
 
 
 def poisson_tessellation(width: float, height: float, radius: float, rng: np.random.Generator,
@@ -15,4 +17,4 @@ def poisson_tessellation(width: float, height: float, radius: float, rng: np.ran
     from procgen.builtin.poisson import poisson_disk
 
     pts = poisson_disk(rng, (width, height), radius, origin=origin)
-    return build_topology(pts, Delaunay(pts).simplices)
+    return mesh_topology(TriMesh(pts, Delaunay(pts).simplices))

@@ -2,36 +2,83 @@
 
 Snaxels live on Delaunay edges (thesis section 3.1). Every topological question the snake asks
 ("which edges leave this vertex, in angular order?", "which triangle lies left of this edge?")
-is answered from one CSR ring per vertex sorted counter-clockwise by angle, built once.
+is answered from one ring per vertex sorted counter-clockwise by angle.
+
+Why not the core's ``CellGraph`` or ``TriMesh.vertex_neighbors`` as they are: the snake needs
+each ring in *angular* order (births fan the children around the vertex, thesis Figure 3.2),
+and a tiled tessellation (:mod:`.tiles`) adds vertices and finishes rings while the cloud grows,
+so the rings live in append-only storage addressed per vertex (``ring_lo``/``ring_hi``) rather
+than in a frozen CSR. The neighbour *sets* do come from the core: ``TriMesh.vertex_neighbors``
+for a mesh made by a recipe step, ``edge_table`` for the tiles' triangles.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from procgen import TriMesh
 from procgen.errors import InputError
-from procgen.geometry import ccw_faces, orient2d
 
 
-@dataclass(frozen=True)
+def angular_rings(points: np.ndarray, src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Directed edges (src -> dst) sorted by source, then counter-clockwise by angle."""
+    ang = np.arctan2(points[dst, 1] - points[src, 1], points[dst, 0] - points[src, 0]) + np.pi  # [0, 2 pi]
+    order = np.argsort(src * 8.0 + ang)        # by vertex, then CCW angle (angles < 8)
+    return src[order], dst[order]
+
+
 class Topology:
-    """Immutable tessellation topology for snaxel growth (all arrays flat, CSR rings)."""
+    """Tessellation topology for snaxel growth: flat arrays, rings addressed per vertex.
 
-    points: np.ndarray        # (n, 2) vertex positions
-    faces: np.ndarray         # (m, 3) CCW triangles
-    ring_ptr: np.ndarray      # (n+1,) CSR pointer into ring
-    ring: np.ndarray          # neighbours of each vertex, CCW by angle
-    hull: np.ndarray          # (n,) bool: vertex on the convex hull / mesh boundary
-    mean_edge: float          # mean undirected edge length
-    min_edge: float           # shortest edge length
+    A vertex is *ready* once its ring is final; the snake only enters ready vertices. A whole
+    mesh is ready from the start; :class:`.tiles.TiledTopology` makes vertices ready on demand
+    through :meth:`ensure`.
+    """
+
+    def __init__(self, points: np.ndarray, faces: np.ndarray, ring_lo: np.ndarray, ring_hi: np.ndarray,
+                 ring: np.ndarray, hull: np.ndarray, mean_edge: float, min_edge: float) -> None:
+        self.points = points          # (n, 2) vertex positions
+        self.faces = faces            # (m, 3) triangles known so far
+        self.ring_lo = ring_lo        # (n,) start of each vertex's ring in ``ring`` (-1: not ready)
+        self.ring_hi = ring_hi        # (n,) end of each vertex's ring
+        self.ring = ring              # neighbours, CCW by angle per vertex
+        self.hull = hull              # (n,) bool: vertex on the mesh boundary (never entered)
+        self.mean_edge = mean_edge    # mean undirected edge length
+        self.min_edge = min_edge      # shortest edge length (a lower bound for tiles)
+
+    unbounded = False     # a whole mesh has a boundary; tiles extend without end
 
     @property
     def n_vertices(self) -> int:
         return len(self.points)
 
+    @property
+    def ready(self) -> np.ndarray:
+        return self.ring_lo >= 0
+
     def neighbours(self, w: int) -> np.ndarray:
-        return self.ring[self.ring_ptr[w]:self.ring_ptr[w + 1]]
+        return self.ring[self.ring_lo[w]:self.ring_hi[w]]
+
+    def ensure(self, vertices: np.ndarray) -> bool:
+        """Make the rings of ``vertices`` final; True when vertices were added (a whole mesh: never)."""
+        return False
+
+    def ensure_box(self, x0: float, y0: float, x1: float, y1: float) -> bool:
+        """Make every vertex in the box ready (sketches, sources); True when vertices were added."""
+        return False
+
+    def rings_of(self, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(source, neighbour) pairs of the given ready vertices' rings, flat and vectorised."""
+        v = np.asarray(vertices, np.int64)
+        lo = self.ring_lo[v]
+        n = self.ring_hi[v] - lo
+        at = np.repeat(lo - np.concatenate([[0], np.cumsum(n)[:-1]]), n) + np.arange(int(n.sum()))
+        return np.repeat(v, n), self.ring[at]
+
+    def edges(self) -> np.ndarray:
+        """(E, 2) undirected edges between ready vertices, each once (lower index first)."""
+        src, dst = self.rings_of(np.flatnonzero(self.ring_lo >= 0))
+        keep = src < dst
+        return np.column_stack([src[keep], dst[keep]])
 
     def left_vertex(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Third vertex of the triangle left of each directed edge u->v (-1 if none).
@@ -51,42 +98,19 @@ class Topology:
         return out
 
 
-def build_topology(points: np.ndarray, faces: np.ndarray) -> Topology:
-    """Rings sorted by angle from a triangle list; raises InputError on a broken mesh."""
-    pts = np.asarray(points, np.float64)
-    tri = np.asarray(faces, np.int64)
-    if pts.ndim != 2 or pts.shape[1] < 2 or len(pts) < 3:
-        raise InputError(f"snaxel tessellation: need (n>=3, 2) vertices, got {pts.shape}")
-    pts = pts[:, :2]
-    if tri.ndim != 2 or tri.shape[1] != 3 or len(tri) == 0:
-        raise InputError(f"snaxel tessellation: need (m, 3) triangles, got {tri.shape}")
-    if tri.min() < 0 or tri.max() >= len(pts):
-        raise InputError("snaxel tessellation: a face index is outside the vertex array")
-    if np.any(orient2d(pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]) == 0):
+def mesh_topology(mesh: TriMesh) -> Topology:
+    """Rings of a whole 2-D mesh from the core's cached edge table; InputError on a broken mesh."""
+    pts = np.asarray(mesh.vertices[:, :2], np.float64)
+    if np.any(mesh.face_areas == 0):
         raise InputError("snaxel tessellation: degenerate (zero-area) triangle")
-    tri = ccw_faces(pts, tri)
-    # directed half-edges of CCW triangles; each interior edge appears once per direction
-    src = tri.ravel()
-    dst = tri[:, [1, 2, 0]].ravel()
-    n = len(pts)
-    key = np.sort(src * n + dst)
-    if np.any(key[1:] == key[:-1]):
-        raise InputError("snaxel tessellation: a directed edge is shared by two triangles (non-manifold)")
-    rev = dst * n + src
-    at = np.minimum(np.searchsorted(key, rev), len(key) - 1)
-    boundary_half = key[at] != rev
-    hull = np.zeros(n, bool)
-    hull[src[boundary_half]] = True
-    hull[dst[boundary_half]] = True
-    # directed neighbour lists: every half-edge plus the reverse of each boundary half-edge
-    s = np.concatenate([src, dst[boundary_half]])
-    d = np.concatenate([dst, src[boundary_half]])
-    ang = np.arctan2(pts[d, 1] - pts[s, 1], pts[d, 0] - pts[s, 0]) + np.pi     # in [0, 2 pi]
-    order = np.argsort(s * 8.0 + ang)        # by vertex, then CCW angle (angles < 8)
-    s, d = s[order], d[order]
-    ptr = np.zeros(n + 1, np.int64)
-    ptr[1:] = np.cumsum(np.bincount(s, minlength=n))
-    und = s < d
-    elen = np.hypot(*(pts[d[und]] - pts[s[und]]).T)
-    return Topology(points=pts, faces=tri, ring_ptr=ptr, ring=d.astype(np.int64), hull=hull,
-                    mean_edge=float(elen.mean()), min_edge=float(elen.min()))
+    if np.any(mesh.edge_valence > 2):
+        raise InputError("snaxel tessellation: an edge is shared by more than two triangles (non-manifold)")
+    graph = mesh.vertex_neighbors
+    indptr = graph.indptr
+    src, dst = angular_rings(pts, graph.rows, graph.indices)
+    hull = np.zeros(len(pts), bool)
+    hull[mesh.edges[mesh.is_boundary_edge].ravel()] = True
+    e = mesh.edges
+    elen = np.hypot(*(pts[e[:, 1]] - pts[e[:, 0]]).T)
+    return Topology(pts, np.asarray(mesh.faces), indptr[:-1].copy(), indptr[1:].copy(), dst, hull,
+                    float(elen.mean()), float(elen.min()))

@@ -521,6 +521,34 @@ def _numba_kernels():
     return types.SimpleNamespace(settle=jit(_settle_loop), link=jit(_link_loop), split_pairs=jit(_split_loop))
 
 
+def _place_fixed(g: _Grid, o: _Open, fixed: np.ndarray) -> _Open:
+    """Put already-placed samples (pairwise >= r apart, e.g. a neighbouring tile's) into the
+    grid and the level-0 sub-cells' disk pairs, so that darts keep r from them and the cells
+    they cover start closed. Only samples within r of the rectangle matter; they lie in the
+    grid or its padding (r < _PAD cell sides)."""
+    f = np.asarray(fixed, dtype=np.float64).reshape(-1, 2)
+    dx = np.maximum(np.maximum(g.x0 - f[:, 0], f[:, 0] - g.x1), 0.0)
+    dy = np.maximum(np.maximum(g.y0 - f[:, 1], f[:, 1] - g.y1), 0.0)
+    f = f[dx * dx + dy * dy < g.touch2]
+    ci = np.floor((f[:, 1] - g.y0) / g.side).astype(np.int64)
+    cj = np.floor((f[:, 0] - g.x0) / g.side).astype(np.int64)
+    g.px[(ci + _PAD) * g.stride + cj + _PAD] = f[:, 0]
+    g.py[(ci + _PAD) * g.stride + cj + _PAD] = f[:, 1]
+    d = np.arange(-_PAD, _PAD + 1)
+    bi = (ci[:, None, None] + d[None, :, None]).repeat(d.size, axis=2).reshape(len(f), -1)
+    bj = (cj[:, None, None] + d[None, None, :]).repeat(d.size, axis=1).reshape(len(f), -1)
+    inside = (bi >= 0) & (bi < g.ny) & (bj >= 0) & (bj < g.nx)
+    owner = np.nonzero(inside)[0]
+    sub = (bi * g.nx + bj)[inside]      # level-0 sub-cells are the cells in row-major order
+    sx, sy = f[owner, 0], f[owner, 1]
+    box = [b[sub] for b in o.box]
+    t = _touches(sx, sy, *box, g.touch2)
+    o.add_pairs(sub[t], sx[t], sy[t])
+    covered = np.zeros(o.i.size, dtype=bool)
+    covered[sub[t & _contains(sx, sy, *box, g.r2)]] = True
+    return o.keep(g, ~(covered | ~np.isnan(g.px[o.cell])))
+
+
 def poisson_disk_with_stats(
     rng: np.random.Generator,
     size: tuple[float, float],
@@ -529,6 +557,7 @@ def poisson_disk_with_stats(
     origin: tuple[float, float] = (0.0, 0.0),
     max_points: int | None = None,
     accelerate: bool | None = None,
+    fixed: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict]:
     """Like :func:`poisson_disk`, also returning counters: rounds, darts, deepest level,
     sub-cells left open at the float floor, a per-round trace (level, open sub-cells, darts,
@@ -547,6 +576,8 @@ def poisson_disk_with_stats(
               side=side, nx=max(1, math.ceil(w / side)), ny=max(1, math.ceil(h / side)))
     ii, jj = np.meshgrid(np.arange(g.ny, dtype=np.int64), np.arange(g.nx, dtype=np.int64), indexing="ij")
     o = _Open(0, ii.ravel(), jj.ravel(), np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)).locate(g)
+    if fixed is not None:
+        o = _place_fixed(g, o, fixed)
     floor_rounds = 0
     stats: dict = {"rounds": 0, "darts": 0, "level": 0, "leftover_subcells": 0, "trace": [],
                    "numba": kern is not None}
@@ -593,14 +624,17 @@ def poisson_disk(
     *,
     origin: tuple[float, float] = (0.0, 0.0),
     max_points: int | None = None,
+    fixed: np.ndarray | None = None,
 ) -> np.ndarray:
     """Maximal Poisson-disk sample of [origin, origin + size): (n, 2) float64 points.
 
     Every pair is at least ``radius`` apart and every location of the rectangle is within
     ``radius`` of a sample (no further sample fits). Deterministic for a given ``rng`` state.
     Points come in acceptance order; ``max_points`` stops after that many (then the set is
-    a valid Poisson-disk set but no longer maximal). Raises PoissonDiskError (an InputError
+    a valid Poisson-disk set but no longer maximal). ``fixed``: samples already placed (pairwise
+    >= ``radius``, e.g. a neighbouring tile's): the new ones keep ``radius`` from them, the
+    rectangle is maximal with them counted, and they are not returned. Raises PoissonDiskError (an InputError
     and a ValueError) for a non-positive or non-finite radius/size, a bad origin or max_points,
     or a grid larger than MAX_GRID_CELLS.
     """
-    return poisson_disk_with_stats(rng, size, radius, origin=origin, max_points=max_points)[0]
+    return poisson_disk_with_stats(rng, size, radius, origin=origin, max_points=max_points, fixed=fixed)[0]

@@ -1,0 +1,64 @@
+"""SVG pages as vector artists and plotters use them: y-down, viewBox from 0 0, real units, layers.
+
+The model is y-up (the thesis's screen). The core's generic SVG writer flips a group with
+``scale(1,-1)``, so Inkscape shows flipped node coordinates and a plotter sees a transform; here
+the flip is applied to the coordinates themselves instead: x' = x - x0, y' = y1 - y, so the
+viewBox is ``0 0 W H`` in domain units and ``width``/``height`` carry the physical size (px or
+mm). Every drawing group is an Inkscape layer (``inkscape:groupmode="layer"``) with a label,
+which Inkscape lists in its Layers panel and vpype reads as one layer each.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import svgwrite
+
+from procgen import InputError
+from procgen.exchange.svg import fmt_number, path_data
+
+INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
+UNITS = ("px", "mm")
+
+
+class Page:
+    """One SVG document over a model box (x0, x1, y0, y1) with y-down coordinates."""
+
+    def __init__(self, box: tuple[float, float, float, float], width: float, units: str = "px") -> None:
+        if units not in UNITS:
+            raise InputError(f"svg units = {units!r}: expected one of {', '.join(UNITS)}")
+        if not width > 0:
+            raise InputError(f"svg width = {width!r}: expected a number > 0")
+        x0, x1, y0, y1 = box
+        self.box = box
+        self.w, self.h = float(x1 - x0), float(y1 - y0)
+        height = width * self.h / self.w
+        self.dwg = svgwrite.Drawing(size=(f"{fmt_number(width)}{units}", f"{fmt_number(height)}{units}"),
+                                    profile="full", debug=False)
+        self.dwg["viewBox"] = f"0 0 {fmt_number(self.w)} {fmt_number(self.h)}"
+        self.dwg.attribs["xmlns:inkscape"] = INKSCAPE_NS
+        self.unit = self.w / width       # domain units per output unit (px or mm)
+        self._layers = 0
+
+    def xy(self, pts: np.ndarray) -> np.ndarray:
+        """Model (y-up) points -> page (y-down) points."""
+        x0, _, _, y1 = self.box
+        return np.column_stack([pts[:, 0] - x0, y1 - pts[:, 1]])
+
+    def d(self, pts: np.ndarray, closed: bool = True) -> str:
+        return path_data(self.xy(pts), closed)
+
+    def layer(self, label: str, **attrs: Any) -> svgwrite.container.Group:
+        """A new top-level Inkscape layer (drawn above the previous ones)."""
+        self._layers += 1
+        g = self.dwg.g(id=f"layer{self._layers}", **attrs)
+        g["inkscape:groupmode"] = "layer"
+        g["inkscape:label"] = label
+        self.dwg.add(g)
+        return g
+
+    def sky(self, colour: str | None) -> None:
+        """An optional background rectangle on a layer of its own ("sky")."""
+        if colour:
+            self.layer("sky").add(self.dwg.rect(insert=(0, 0), size=(fmt_number(self.w), fmt_number(self.h)),
+                                                fill=colour))

@@ -1,0 +1,103 @@
+"""Cloud SVG as artists and plotters use it: y-down pages from 0 0, real units, named Inkscape
+layers, and a stroke-only plotter file that vpype reads with the expected paths and layers."""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from procgen import InputError, Polylines
+
+SVG = "{http://www.w3.org/2000/svg}"
+INK = "{http://www.inkscape.org/namespaces/inkscape}"
+
+
+def ring(cx: float, cy: float, rx: float, ry: float, n: int = 60) -> np.ndarray:
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.column_stack([cx + rx * np.cos(t), cy + ry * np.sin(t)])
+
+
+def history() -> Polylines:
+    """Five nested contours (a growing cloud) as snaxel.grow's {cloud}_history holds them."""
+    lines = [ring(60, 40, 5 + 8 * k, 4 + 6 * k) for k in range(5)]
+    dom = Polylines.from_list(lines, closed=True, bounds=(0.0, 120.0, 0.0, 80.0))
+    dom.add_field("snapshot__step", np.arange(5) * 10, at="line")
+    dom.add_field("snaxel__curve", np.tile(np.repeat(np.arange(6), 10), 5), at="point")
+    return dom
+
+
+def layers(root: ET.Element) -> list[str]:
+    return [g.get(INK + "label") for g in root.findall(SVG + "g") if g.get(INK + "groupmode") == "layer"]
+
+
+def test_cloud_svg_is_y_down_from_zero_in_real_units():
+    from procgen_snaxel.exporters import cloud_svg
+
+    dom = history()
+    root = ET.fromstring(cloud_svg(dom, width=150, units="mm"))
+    assert root.get("viewBox") == "0 0 120 80" and root.get("width") == "150mm" and root.get("height") == "100mm"
+    assert layers(root) == ["sky", "cloud"]
+    assert not any(el.get("transform") for el in root.iter())
+    d = [p for p in root.iter(SVG + "path")][-1].get("d")
+    first = [float(v) for v in d[1:].split(" L")[0].split(",")]
+    # the last contour's model point (60 + 37, 40) (y up, box top at 80) sits at page (97, 40) (y down)
+    assert first == pytest.approx([97.0, 80.0 - 40.0])
+    no_sky = ET.fromstring(cloud_svg(dom, background=None))
+    assert layers(no_sky) == ["cloud"] and not list(no_sky.iter(SVG + "rect"))
+    with pytest.raises(InputError, match="units"):
+        cloud_svg(dom, units="furlong")
+
+
+def test_process_figure_has_a_named_layer_per_contour():
+    from procgen_snaxel.exporters import process_svg
+
+    root = ET.fromstring(process_svg(history(), background=None, fill=None))
+    assert layers(root) == [f"contour step {10 * k}" for k in range(5)]
+
+
+def test_plotter_svg_strokes_only_and_vpype_reads_paths_and_layers(tmp_path):
+    vp = pytest.importorskip("vpype")
+    from procgen_snaxel.exporters import plot_order, plotter_svg
+
+    dom = history()
+    one = tmp_path / "outline.svg"
+    one.write_bytes(plotter_svg(dom))
+    both = tmp_path / "pens.svg"
+    both.write_bytes(plotter_svg(dom, process=True, width=120, units="mm"))
+    root = ET.fromstring(both.read_bytes())
+    assert root.get("width") == "120mm" and layers(root) == ["outline", "process"]
+    assert not list(root.iter(SVG + "rect"))
+    for g in root.findall(SVG + "g"):
+        assert g.get("fill") == "none" and g.get("stroke")
+    doc = vp.read_multilayer_svg(str(one), 0.05)
+    assert len(doc.layers) == 1 and sum(len(lc) for lc in doc.layers.values()) == 1
+    doc = vp.read_multilayer_svg(str(both), 0.05)
+    assert len(doc.layers) == 2 and sorted(len(lc) for lc in doc.layers.values()) == [1, 4]
+    # 120 mm for 120 units: vpype's pixels (1/96 in) give the outline's true width in mm
+    outline = next(lc for lc in doc.layers.values() if len(lc) == 1)
+    x0, y0, x1, y1 = outline.bounds()
+    assert (x1 - x0) / 96 * 25.4 == pytest.approx(2 * 37, rel=0.01)
+    # pen-up travel: the ordered file travels less than drawing lines in the given order
+    lines = [dom.line(i) for i in (4, 0, 3, 1, 2)]
+    ordered = plot_order(lines, [True] * 5, np.zeros(2))
+    naive = [np.vstack([p, p[:1]]) for p in lines]
+    travel = lambda ps: sum(np.hypot(*(b[0] - a[-1])) for a, b in zip(ps, ps[1:]))  # noqa: E731
+    assert travel(ordered) < 0.5 * travel(naive)
+    with pytest.raises(InputError, match="history"):
+        plotter_svg(Polylines.from_list([ring(5, 5, 2, 2)], closed=True), process=True)
+
+
+def test_cloudscape_one_layer_per_cloud_with_lobe_gradients():
+    from procgen_snaxel.exporters import cloudscape_svg
+
+    lines = [ring(40, 60, 20, 10), ring(100, 40, 30, 18)]
+    dom = Polylines.from_list(lines, closed=True, bounds=(0.0, 150.0, 0.0, 90.0))
+    dom.add_field("cloud__depth", np.array([0, 1]), at="line")
+    dom.add_field("snaxel__curve", np.concatenate([np.repeat(np.arange(6), 10)] * 2), at="point")
+    root = ET.fromstring(cloudscape_svg(dom))
+    assert layers(root) == ["sky", "cloud 1 (depth 0)", "cloud 2 (depth 1)"]
+    assert len(list(root.iter(SVG + "radialGradient"))) == 2
+    assert len(list(root.iter(SVG + "circle"))) == 12                    # one lobe per curve
+    bare = ET.fromstring(cloudscape_svg(dom, sky=False))
+    assert layers(bare)[0] == "cloud 1 (depth 0)"
