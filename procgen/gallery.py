@@ -11,6 +11,7 @@ from __future__ import annotations
 import fnmatch
 import html
 import json
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
