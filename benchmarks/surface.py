@@ -7,6 +7,11 @@ same cells is timed in the same process, with the label agreement.
 
     python benchmarks/surface.py            # full size
     python benchmarks/surface.py --quick    # a tenth of the cells
+    python benchmarks/surface.py --quick --baseline /work/venv-main/bin/python   # + previous code
+
+The patina part times the attack/defence kernel alone and the whole ``layers.corrode`` rule
+(which also publishes its fields every step); with --baseline the previous version of this
+benchmark runs after it under that interpreter, so both print the same figures in one run.
 """
 from __future__ import annotations
 
@@ -16,7 +21,12 @@ import time
 import numpy as np
 import trimesh
 
-from procgen.ca import corrosion as cz
+from _baseline import add_arguments, run_previous
+from procgen import State
+from procgen_layers import corrosion as cz
+from procgen_layers.materials import parse_materials
+from procgen_layers.rules import Corrode, cell_stack_colors
+from procgen_layers.stack import put_thickness, store_table
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.primitives import cup
 from procgen_surface.voronoi import VoronoiGrowth, place_seeds
@@ -32,6 +42,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--steps", type=int, default=950)
+    add_arguments(ap)
     args = ap.parse_args()
     scale = 0.1 if args.quick else 1.0
 
@@ -75,10 +86,11 @@ def main() -> None:
                            product=np.zeros(n), age=np.zeros(n, np.int32),
                            strong=cz.strong_mask(n, 0.3, rng))
     st.status[rng.integers(n)] = cz.CORRODED
-    prm = cz.CorrosionParams()
+    prm = Corrode()                                   # the rule's parameters are the kernel's
+    weights = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
     t0 = time.perf_counter()
     for k in range(args.steps):
-        cz.corrosion_step(sc2.graph, st, prm, np.random.default_rng(k))
+        cz.corrosion_step(sc2.graph, st, prm, np.random.default_rng(k), weights=weights)
     t_pat = time.perf_counter() - t0
     cov = np.mean(st.status != cz.NORMAL)
     print(f"patina     : {args.steps} steps on {n:,} cells ({len(cf)} triangles, built in "
@@ -86,19 +98,35 @@ def main() -> None:
           f"coverage {cov:.1%}")
     print(f"  {t_pat / 60:.2f} x the 60 s target, {1200 / t_pat:,.0f} x faster than the thesis (< 20 min)")
 
+    # -- the same through the layers.corrode rule (fields published every step) ---------------
+    table = parse_materials(["copper", "patina"])
+    state = State(seed=2)
+    state.add_domain("cells", sc2)
+    store_table(sc2, table)
+    put_thickness(sc2, np.column_stack([np.ones(n), np.zeros(n)]), table)
+    rule = Corrode(strong_fraction=0.3)
+    state.step_index, state.rule_name, state.iteration = 0, rule.name, -1
+    rule.setup(state)
+    t0 = time.perf_counter()
+    for k in range(args.steps):
+        state.iteration = k
+        rule.step(state)
+    t_rule = time.perf_counter() - t0
+    print(f"rule       : layers.corrode, {args.steps} steps in {t_rule:.2f} s "
+          f"({n * args.steps / t_rule:,.0f} cell updates/s, {t_rule / t_pat:.2f} x the kernel alone), "
+          f"coverage {np.mean(sc2['corrosion__state'] != cz.NORMAL):.1%}")
+
     # -- export: textured OBJ and GLB of the patinated cup -----------------------------------
     from procgen_surface.exporters import surface_glb, surface_obj
-    from procgen_surface.rules import cell_colors
-    from procgen.materials import parse_materials
-    sc2.set_materials(parse_materials(["copper", "patina"]))
-    sc2.add_field("layers__thickness", np.column_stack([st.consumable[:, 0], st.product]), at="cell")
-    sc2.add_field("surface__rgb", cell_colors(sc2, "layers", lit=False, light=np.zeros(3),
-                                              eye=np.zeros(3)), at="cell")
+    sc2.add_field("surface__color", cell_stack_colors(sc2, lit=False, light=np.zeros(3), eye=np.zeros(3)),
+                  at="cell")
     files, t_obj = timed(surface_obj, sc2, stem="cup")
     glb, t_glb = timed(surface_glb, sc2)
     size = sum(len(b) for b in files.values()) / 1e6
     print(f"export     : OBJ+MTL+atlas {size:.1f} MB in {t_obj:.2f} s, GLB {len(glb) / 1e6:.1f} MB "
           f"in {t_glb:.2f} s")
+    run_previous("surface.py", args.baseline, args.baseline_rev,
+                 ["--steps", str(args.steps)] + (["--quick"] if args.quick else []))
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ import numpy as np
 
 from procgen import PointSet
 from procgen.lighting import light_direction, phong
-from procgen.materials import parse_materials
+from procgen_layers.materials import parse_materials
 from procgen_water.exporters import drops_svg
 from procgen_water.render import render_layers
 

@@ -10,10 +10,8 @@ from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domai
 
 @hookimpl
 def procgen_register_rules():
-    from .rules import (BuildCells, CupPrimitive, LatticePrimitive, RevolvePrimitive, ShadeCells,
-                        SurfaceCorrosion, SurfaceLayers, SurfaceVoronoi)
-    return [CupPrimitive, RevolvePrimitive, LatticePrimitive, BuildCells, SurfaceLayers,
-            SurfaceVoronoi, SurfaceCorrosion, ShadeCells]
+    from .rules import BuildCells, CupPrimitive, LatticePrimitive, RevolvePrimitive, SurfaceVoronoi
+    return [CupPrimitive, RevolvePrimitive, LatticePrimitive, BuildCells, SurfaceVoronoi]
 
 
 @hookimpl

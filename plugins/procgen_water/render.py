@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from procgen.lighting import heightfield_normals, light_direction, phong, through_layers
-from procgen.materials import PRESETS, Material, MaterialTable
+from procgen.lighting import heightfield_normals, light_direction, phong
+from procgen_layers.light import lit_layers, through_layers
+from procgen_layers.materials import PRESETS, Material, MaterialTable
 
 
 def render_layers(base: np.ndarray, thickness: np.ndarray, table: MaterialTable, *, spacing: float = 1.0,
@@ -28,12 +29,8 @@ def render_layers(base: np.ndarray, thickness: np.ndarray, table: MaterialTable,
     ny, nx, L = t.shape
     light = light_direction(azimuth, elevation)
     tops = base_relief * base[..., None] + np.cumsum(t, axis=-1)
-    cols = table.array("color")
-    lit = np.empty((ny, nx, L, 3))
-    for l, m in enumerate(table):       # L is a handful of layers; each layer is a whole-grid op
-        n = heightfield_normals(z_scale * tops[..., l], spacing)
-        lit[:, :, l] = phong(n, cols[l], light=light, ambient=m.ambient, diffuse=m.diffuse,
-                             specular=m.specular, exponent=m.exponent)
+    normals = np.stack([heightfield_normals(z_scale * tops[..., l], spacing) for l in range(L)], axis=-2)
+    lit = lit_layers(normals, table, light=light, per_layer=True)
     if held is not None and wet_darkening > 0:
         cap = table.array("capacity")[None, None, :] * t * spacing * spacing
         with np.errstate(invalid="ignore", divide="ignore"):

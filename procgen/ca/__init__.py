@@ -1,6 +1,6 @@
-"""Cellular-automaton machinery shared by the plugins: neighbour graphs and model kernels.
+"""Cellular-automaton machinery shared by the plugins: mechanisms only, no phenomenon.
 
 The cell-domain protocol (:mod:`.cells`: any domain that hands out a CellGraph), generic
-stepping (:mod:`.graph`) and the attack/defence corrosion kernel (:mod:`.corrosion`)
-that both the 2.5-D surface plugin and the mesh-surface plugin run, each on its own graph.
+stepping (:mod:`.graph`) and coverage curves (:mod:`.coverage`).  Models written on them
+(corrosion, Voronoi growth, ...) live in their family plugins.
 """

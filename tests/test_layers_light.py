@@ -4,8 +4,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from procgen.errors import InputError
-from procgen.lighting import (heightfield_normals, layer_weights, light_direction, opacity_factor,
-                              phong, through_layers, through_layers_loop)
+from procgen.lighting import heightfield_normals, light_direction, phong
+from procgen_layers.light import layer_weights, opacity_factor, through_layers, through_layers_loop
 
 
 def _direct_sum(lc, t, o):
