@@ -222,3 +222,15 @@ def test_one_rule_on_mesh_cells_consumes_several_layers_top_first(host):
     assert np.all((t[:, 0] < 0.05 - 1e-12) <= (t[:, 1] == 0))
     assert np.array_equal(sc["cell__alive"], state != 2)
     np.testing.assert_allclose(sc["layers__source"], (t.sum(1) - 0.08) * sc.area, atol=1e-12)
+
+
+def test_check_refuses_a_domain_without_cells_and_an_unknown_material(host):
+    from procgen import RecipeError
+    from procgen.recipes import check_recipe
+
+    pts = [{"rule": "points.poisson_disk", "params": {"radius": 0.1, "domain": "pts"}}]
+    with pytest.raises(RecipeError, match=r"steps\[1\] \(layers.stack\): .*'pts' is a PointSet, not a cell domain"):
+        check_recipe({"steps": pts + [{"rule": "layers.stack", "params": {"cells": "pts"}}]}, host)
+    grid = [{"rule": "grid.noise", "params": {"grid": "cells", "nx": 8, "ny": 8}}]
+    with pytest.raises(RecipeError, match="unknown material preset 'coper'.*did you mean 'copper'"):
+        check_recipe({"steps": grid + [{"rule": "layers.stack", "params": {"layers": ["coper"]}}]}, host)

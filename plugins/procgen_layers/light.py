@@ -14,15 +14,17 @@ cells, mesh cells), so the 2.5-D and the mesh recipes share this one implementat
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from procgen.errors import InputError
 from procgen.lighting import phong
 
-from .materials import MaterialTable
+from .materials import Material, MaterialTable
 
-__all__ = ["opacity_factor", "layer_weights", "through_layers", "through_layers_loop",
-           "stack_colors", "MAX_OPACITY"]
+__all__ = ["opacity_factor", "layer_weights", "through_layers", "through_layers_loop", "lit_layers",
+           "shade_stack", "scale_opacity", "MAX_OPACITY"]
 
 #: opacity is clamped below this for the f(o) = o/(1-o) law (an opaque layer would be infinite)
 MAX_OPACITY = 0.999
@@ -112,9 +114,54 @@ def lit_layers(normals: np.ndarray, table: MaterialTable, *, light: np.ndarray,
     return np.stack(out, axis=-2)
 
 
-def stack_colors(lit: np.ndarray, thickness: np.ndarray, opacity: np.ndarray,
-                 empty: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
-    """Colour through a bottom-first stack: lit (..., L, 3), thickness (..., L), opacity (L,)."""
-    top_first = slice(None, None, -1)
-    return through_layers(np.asarray(lit)[..., top_first, :], np.asarray(thickness)[..., top_first],
-                          np.asarray(opacity)[..., top_first], empty=np.asarray(empty, float))
+def shade_stack(normals: np.ndarray, thickness: np.ndarray, table: MaterialTable, *, light: np.ndarray,
+                eye: np.ndarray = (0.0, 0.0, 1.0), lit: bool = True, white_highlights: bool = False,
+                per_layer: bool = False, held: np.ndarray | None = None, cell_area: float | np.ndarray = 1.0,
+                wet_darkening: float = 0.0, film: np.ndarray | None = None,
+                film_normals: np.ndarray | None = None, film_material: Material | None = None,
+                hole: np.ndarray | None = None,
+                background: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+    """RGB in [0, 1] (..., 3) of elements with a bottom-first stack ``thickness`` (..., L).
+
+    Each layer is lit first (Phong, or its bare colour with ``lit=False``: the albedo a viewer
+    lights later), then the layers are combined top-down by the share of light each absorbs.
+    ``held`` (..., L): liquid held per layer; a layer darkens by ``wet_darkening`` times its
+    saturation held / (capacity * thickness * cell_area) (the thesis's wet look, plate 2.4).
+    ``film`` (...,): a liquid film of ``film_material`` on top (e.g. standing drops, plate 2.5),
+    lit with ``film_normals`` and white highlights.  Elements with no optical depth, and
+    ``hole`` ones, show ``background``.
+    """
+    t = np.asarray(thickness, dtype=float)
+    if lit:
+        lc = lit_layers(normals, table, light=light, eye=eye, per_layer=per_layer,
+                        specular_color=np.ones(3) if white_highlights else None)
+    else:
+        col = table.array("color")
+        lc = np.broadcast_to(col, t.shape + (3,))
+    if held is not None and wet_darkening > 0:
+        cap = table.array("capacity") * t * np.asarray(cell_area, dtype=float)[..., None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sat = np.where(cap > 0, np.clip(held / np.where(cap > 0, cap, 1.0), 0, 1), 0.0)
+        lc = lc * (1.0 - wet_darkening * sat)[..., None]
+    opac = table.array("opacity")
+    lit_td, t_td, o_td = lc[..., ::-1, :], t[..., ::-1], opac[::-1]        # top layer first
+    if film is not None and np.any(film > 0):
+        m = film_material
+        wl = phong(film_normals, m.color, light=light, eye=eye, ambient=m.ambient, diffuse=m.diffuse,
+                   specular=m.specular, exponent=m.exponent, specular_color=(1, 1, 1))
+        lit_td = np.concatenate([wl[..., None, :], lit_td], axis=-2)
+        t_td = np.concatenate([np.asarray(film, float)[..., None], t_td], axis=-1)
+        o_td = np.concatenate([[m.opacity], o_td])
+    c = through_layers(lit_td, t_td, o_td, empty=np.asarray(background, float))
+    if hole is not None:
+        c[hole] = background
+    return np.clip(c, 0.0, 1.0)
+
+
+def scale_opacity(table: MaterialTable, factor: float) -> MaterialTable:
+    """The table with every layer's f(o) multiplied by ``factor`` (plate 2.3: rising opacity)."""
+    mats = []
+    for m in table:
+        f = opacity_factor(m.opacity) * factor
+        mats.append(replace(m, opacity=float(min(f / (1 + f), MAX_OPACITY))))
+    return MaterialTable(tuple(mats))

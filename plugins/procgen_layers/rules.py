@@ -16,12 +16,14 @@ from procgen.ca.cells import cell_graph, cell_values, n_cells, put_cell_values
 from procgen.ca.coverage import CoverageLog
 from procgen.ca.graph import MOORE
 from procgen.exchange.preview import camera_basis
-from procgen.lighting import light_direction
+from procgen.domains import Grid
+from procgen.fields import check_field_name
+from procgen.lighting import heightfield_normals, light_direction
 from procgen.noise import value_noise_3d
 
 from . import corrosion as cz
-from .light import lit_layers, stack_colors
-from .materials import MaterialTable, split_layer_specs
+from .light import scale_opacity, shade_stack
+from .materials import MaterialTable, preset, split_layer_specs
 from .stack import (THICKNESS, cell_areas, cell_centres, cell_size, load_table, noisy_layer,
                     put_thickness, store_table, table_field_specs)
 
@@ -29,6 +31,21 @@ CELLS = "{cells}"
 _GRID = ({"rule": "grid.noise", "params": {"grid": "cells", "nx": 24, "ny": 20}},)
 _STACK = _GRID + ({"rule": "layers.stack"},)
 STACK_GEOMETRY_KEYS = ("thickness", "noise", "hurst", "smoothness")
+
+
+def check_cell_domain(rule: RuleBase, earlier: list[RuleBase]) -> None:
+    """At check time: the domain ``rule.cells`` must be a cell domain (a Grid, surface cells...)."""
+    from procgen.ca.cells import is_cell_domain
+    from procgen.domains import DOMAIN_KINDS
+
+    for r in reversed(earlier):
+        kind = r.domains_created().get(rule.cells)
+        if kind is not None:
+            cls = DOMAIN_KINDS.get(kind)
+            if cls is not None and not is_cell_domain(cls):
+                raise InputError(f"{rule.name}: domain {rule.cells!r} is a {kind}, not a cell domain "
+                                 "(layers live on a Grid or on surface cells)")
+            return
 
 
 def parse_stack(specs: Any, where: str = "layers") -> tuple[MaterialTable, list[dict[str, float]]]:
@@ -74,6 +91,9 @@ class StackLayers(RuleBase):
             parse_stack(self.layers)
         except InputError as exc:
             raise ValueError(str(exc)) from None
+
+    def check_chain(self, earlier: list[RuleBase]) -> None:
+        check_cell_domain(self, earlier)
 
     def step(self, state: State) -> bool:
         dom = state.get(self.cells)
@@ -185,7 +205,8 @@ class Corrode(RuleBase):
             raise ValueError(f"the product layer {self.product!r} cannot also be consumed")
 
     def check_chain(self, earlier: list[RuleBase]) -> None:
-        """Consumed and product layers must exist in the stack built earlier on these cells."""
+        """A cell domain, whose stack (built earlier) has the consumed and product layers."""
+        check_cell_domain(self, earlier)
         made = [r for r in earlier if isinstance(getattr(r, "layers", None), list)
                 and self.cells in (getattr(r, "cells", None), getattr(r, "grid", None))]
         if made:
@@ -346,11 +367,14 @@ GEOMETRY_KEYS_ANY = STACK_GEOMETRY_KEYS + ("coverage", "coverage_scale", "rect",
 
 @dataclass(kw_only=True)
 class Shade(RuleBase):
-    """Colour per cell seen through the layer stack (``surface__color``, thesis App. B).
+    """Colour per cell seen through the layer stack (thesis 2.5, 3.4, App. B): on any cell domain.
 
-    Each layer's material colour is lit first (Phong with the cell normal, a fixed light and
-    eye; or left unlit as the albedo for texture baking, where the viewer lights the mesh), then
-    the layers are combined by the share of light each absorbs.  Holes show black.
+    Each layer's material colour is lit first (Phong; on a Grid with the normal of that layer's
+    own top surface, on mesh cells with the cell normal), or left unlit (``lit = false``: the
+    albedo for texture baking, the viewer lights the mesh), then the layers are combined by the
+    share of light each absorbs.  Liquid held in a layer darkens it (``wet_field``), a liquid
+    film can lie on top (``film_field``: the drops of plate 2.5), holes (``cell__alive`` false)
+    and empty stacks show the background.
     """
 
     name: ClassVar[str] = "layers.shade"
@@ -358,20 +382,72 @@ class Shade(RuleBase):
     uses: ClassVar[dict[str, str]] = {CELLS: "Domain"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "in", units="length"),
-        FieldSpec("surface__color", CELLS, "cell", "out", units="rgb", doc="colour in [0, 1]"),)
+        FieldSpec("{field}", CELLS, "cell", "out", units="rgb", doc="colour in [0, 1]"),)
     cells: str = param("cells", doc="cell domain carrying a layer stack")
-    lit: bool = param(False, doc="Phong per layer (True) or unlit albedo for baking (False)")
-    light_azimuth: float = param(40.0, units="deg", doc="light direction azimuth")
-    light_elevation: float = param(50.0, units="deg", doc="light direction elevation")
-    eye_azimuth: float = param(35.0, units="deg", doc="eye direction azimuth")
-    eye_elevation: float = param(25.0, units="deg", doc="eye direction elevation")
+    field: str = param("surface__color", doc="cell field to write (e.g. stage_b__color to keep a stage)")
+    lit: bool = param(True, doc="Phong per layer (True) or the unlit albedo for texture baking (False)")
+    light_azimuth: float = param(135.0, ge=-360.0, le=360.0, units="deg", doc="light azimuth from +x")
+    light_elevation: float = param(50.0, gt=0.0, le=90.0, units="deg", doc="light elevation")
+    eye_azimuth: float = param(0.0, ge=-360.0, le=360.0, units="deg", doc="eye azimuth from +x")
+    eye_elevation: float = param(90.0, gt=0.0, le=90.0, units="deg", doc="eye elevation (90: straight above)")
+    white_highlights: bool = param(False, doc="white specular highlights (False: tinted by the material, as the thesis)")
+    z_scale: float = param(1.0, gt=0.0, doc="Grid: relief exaggeration for the normals")
+    base_relief: float = param(1.0, ge=0.0, le=1.0, doc="Grid: share of surface__base relief in the "
+                                                       "normals (0 = shade a tilted plate face-on)")
+    opacity_scale: float = param(1.0, gt=0.0, doc="multiply every layer's f(o) (plate 2.3: rising opacity)")
+    wet_field: str = param("", doc="cell field of liquid held per layer (e.g. water__held; '' = dry)")
+    wet_darkening: float = param(0.45, ge=0.0, le=1.0, doc="how much saturation darkens a layer")
+    film_field: str = param("", doc="cell field of a liquid film depth on top ('' = none)")
+    film_material: str = param("water", doc="material preset of the film")
+    film_gain: float = param(1.0, gt=0.0, doc="scale of the film depth")
+    background: list[float] = param([0.05, 0.05, 0.08], ge=0.0, le=1.0, doc="colour of holes and empty cells")
+
+    def validate(self) -> None:
+        if len(self.background) != 3:
+            raise ValueError("background must be 3 numbers")
+        check_field_name(self.field)
+        for f in (self.wet_field, self.film_field):
+            if f:
+                check_field_name(f)
+        try:
+            preset(self.film_material)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
+
+    def check_chain(self, earlier: list[RuleBase]) -> None:
+        check_cell_domain(self, earlier)
 
     def step(self, state: State) -> bool:
         dom = state.get(self.cells)
+        table = load_table(dom, self.name)
+        if self.opacity_scale != 1.0:
+            table = scale_opacity(table, self.opacity_scale)
+        t = np.asarray(dom[THICKNESS], dtype=float)             # the domain's own layout
+        shape = t.shape[:-1]
         light = light_direction(self.light_azimuth, self.light_elevation)
-        eye = camera_basis(self.eye_azimuth, self.eye_elevation)[0]
-        put_cell_values(dom, "surface__color", cell_stack_colors(dom, lit=self.lit, light=light, eye=eye),
-                        units="rgb", doc="colour seen through the layers")
+        eye = np.array([0.0, 0.0, 1.0]) if self.eye_elevation == 90 else \
+            camera_basis(self.eye_azimuth, self.eye_elevation)[0]
+        film = None
+        if self.film_field and self.film_field in dom:
+            film = np.asarray(dom[self.film_field], dtype=float) * self.film_gain
+        if isinstance(dom, Grid):
+            base = self.base_relief * np.asarray(dom["surface__base"], float) if "surface__base" in dom \
+                else np.zeros(shape)
+            tops = base[..., None] + np.cumsum(t, axis=-1)
+            normals = np.stack([heightfield_normals(self.z_scale * tops[..., li], dom.spacing)
+                                for li in range(t.shape[-1])], axis=-2)
+            film_normals = None if film is None else \
+                heightfield_normals(self.z_scale * (tops[..., -1] + film), dom.spacing)
+        else:
+            normals = film_normals = cell_normals(dom)
+        held = np.asarray(dom[self.wet_field], float) if self.wet_field and self.wet_field in dom else None
+        alive = np.asarray(dom["cell__alive"], bool).reshape(shape) if "cell__alive" in dom else None
+        rgb = shade_stack(normals, t, table, light=light, eye=eye, lit=self.lit,
+                          white_highlights=self.white_highlights, per_layer=isinstance(dom, Grid), held=held,
+                          cell_area=cell_areas(dom).reshape(shape), wet_darkening=self.wet_darkening,
+                          film=film, film_normals=film_normals, film_material=preset(self.film_material),
+                          hole=None if alive is None else ~alive, background=tuple(self.background))
+        dom.add_field(self.field, rgb, at="cell", units="rgb", doc="colour seen through the layers")
         return True
 
 
@@ -384,15 +460,11 @@ def cell_normals(dom: Any) -> np.ndarray:
 
 
 def cell_stack_colors(dom: Any, *, lit: bool, light: np.ndarray, eye: np.ndarray) -> np.ndarray:
-    """(n, 3) colour per cell through its stack; shared by layers.shade and the mesh exporters."""
+    """(n, 3) colour per cell through its stack, white highlights; for the mesh exporters."""
     table = load_table(dom, "shade")
     t = np.asarray(cell_values(dom, THICKNESS), dtype=float)
-    if lit:
-        colors = lit_layers(cell_normals(dom), table, light=light, eye=eye, specular_color=np.ones(3))
-    else:
-        col = table.array("color")
-        colors = np.broadcast_to(col, (len(t),) + col.shape)
-    return np.clip(stack_colors(colors, t, table.array("opacity")), 0.0, 1.0)
+    return shade_stack(cell_normals(dom) if lit else None, t, table, light=light, eye=eye, lit=lit,
+                       white_highlights=True)
 
 
 RULES = [StackLayers, Corrode, Shade]

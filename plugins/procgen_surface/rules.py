@@ -3,11 +3,11 @@ are the layered-materials family's rules, run on these cells)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
-from procgen import FieldSpec, InputError, Polylines, RuleBase, State, TriMesh, param
+from procgen import FieldSpec, InputError, RuleBase, State, TriMesh, param
 from procgen.ca.coverage import CoverageLog
 
 from .domain import SurfaceCells

@@ -1,4 +1,7 @@
-"""procgen rules of the water family: surface, drops, weak map, corrosion, render."""
+"""procgen rules of the water family: 2.5-D surface, drops, weak map, snapshots.
+
+Corrosion and shading of the layer stack are the layered-materials family's (layers.corrode,
+layers.shade); they run on the grids this family builds."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -9,12 +12,12 @@ import numpy as np
 from procgen import FieldSpec, Grid, InputError, RuleBase, State, param
 from procgen.fields import check_field_name
 
-from . import particles as P
 from procgen_layers.stack import THICKNESS, store_table, table_field_specs
 
+from . import particles as P
 from .weak_map import REGROUP_POWERS, weak_cells, weakness_score
 from .layers import base_surface, check_grid, layer_thickness, parse_layers
-from .render import render_layers, water_depth_map
+from .render import water_depth_map
 from .state_io import (drop_specs, drops_from_domain, drops_to_domain, ensure_water_fields, map_specs,
                        surface_view, update_derived)
 
@@ -241,65 +244,6 @@ class WeakMap(RuleBase):
 
 
 @dataclass(kw_only=True)
-class RenderLayers(RuleBase):
-    """Colour map: Phong per layer and cell, then light through the layers (thesis 2.5, App. B).
-
-    Writes surface__color (RGB in [0, 1]); optionally shows wet layers darker and the drops as
-    a water film on top.  Corrosion holes show the background.
-    """
-
-    name: ClassVar[str] = "water.render"
-    example: ClassVar[tuple[dict, ...]] = _SMALL + ({"rule": "water.render"},)
-    uses: ClassVar[dict[str, str]] = {SURF: "Grid"}
-    fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec(THICKNESS, SURF, "cell", "in", units="length"),
-        FieldSpec("{field}", SURF, "cell", "out", units="rgb"),
-    )
-    grid: str = param("terrain", doc="Grid to render")
-    field: str = param("surface__color", doc="cell field to write (e.g. stage_b__color to keep a stage)")
-    azimuth: float = param(135.0, ge=-360.0, le=360.0, units="deg", doc="light azimuth from +x")
-    elevation: float = param(50.0, gt=0.0, le=90.0, units="deg", doc="light elevation")
-    wet_darkening: float = param(0.45, ge=0.0, le=1.0, doc="how much saturation darkens a layer")
-    show_drops: bool = param(False, doc="draw the drops' water as a film on top")
-    depth_gain: float = param(1.0, gt=0.0, doc="scale of the drop water film")
-    z_scale: float = param(1.0, gt=0.0, doc="relief exaggeration for shading")
-    base_relief: float = param(1.0, ge=0.0, le=1.0, doc="share of the base relief in the shading (0 = shade a tilted plate face-on)")
-    opacity_scale: float = param(1.0, gt=0.0, doc="multiply every layer's f(o) (plate 2.3: rising opacity)")
-    background: list[float] = param([0.05, 0.05, 0.08], ge=0.0, le=1.0, doc="colour of holes")
-
-    def step(self, state: State) -> bool:
-        g, s, table = surface_view(state, self.grid)
-        t = s.thickness.reshape(g.shape + (s.n_layers,))
-        held = s.held.reshape(t.shape)
-        water = None
-        if self.show_drops and "water__depth" in g:
-            water = np.asarray(g["water__depth"]) * self.depth_gain
-        hole = (np.asarray(g["corrosion__state"]) == 2) if "corrosion__state" in g else None
-        if self.opacity_scale != 1.0:
-            from dataclasses import replace
-
-            from procgen_layers.light import opacity_factor
-            from procgen_layers.materials import MaterialTable
-            mats = []
-            for m in table:
-                f = opacity_factor(m.opacity) * self.opacity_scale
-                mats.append(replace(m, opacity=float(min(f / (1 + f), 0.999))))
-            table = MaterialTable(tuple(mats))
-        rgb = render_layers(np.asarray(g["surface__base"]), t, table, spacing=g.spacing,
-                            azimuth=self.azimuth, elevation=self.elevation, held=held,
-                            wet_darkening=self.wet_darkening, water_depth=water, hole=hole,
-                            background=tuple(self.background), z_scale=self.z_scale,
-                            base_relief=self.base_relief)
-        g.add_field(self.field, rgb, at="cell", units="rgb", doc="rendered colour")
-        return True
-
-    def validate(self) -> None:
-        if len(self.background) != 3:
-            raise ValueError("background must be 3 numbers")
-        check_field_name(self.field)
-
-
-@dataclass(kw_only=True)
 class Snapshot(RuleBase):
     """Copy a grid field under a new name, to keep a stage of a run for the outputs."""
 
@@ -327,4 +271,4 @@ class Snapshot(RuleBase):
         return True
 
 
-RULES = [MultiLayerSurface, WaterDrops, WeakMap, RenderLayers, Snapshot]
+RULES = [MultiLayerSurface, WaterDrops, WeakMap, Snapshot]
