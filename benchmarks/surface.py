@@ -7,11 +7,15 @@ same cells is timed in the same process, with the label agreement.
 
     python benchmarks/surface.py            # full size
     python benchmarks/surface.py --quick    # a tenth of the cells
-    python benchmarks/surface.py --baseline ../main   # also time the Voronoi kernel of another
-                                            # checkout (e.g. before it moved into procgen.ca)
+    python benchmarks/surface.py --voronoi-baseline ../main   # also time the Voronoi kernel of
+                                            # another checkout (before it moved into procgen.ca)
+    python benchmarks/surface.py --quick --baseline /path/to/venv/bin/python   # + previous code
 
 Voronoi runs as the core's generic ``ca.voronoi`` kernel (procgen.ca.propagation) on the cells'
-CellGraph; ``ca.life`` (25/357, table reading) is timed on the same cells.
+CellGraph; ``ca.life`` (25/357, table reading) is timed on the same cells. The patina part
+times the attack/defence kernel alone and the whole ``layers.corrode`` rule (which also
+publishes its fields every step); with --baseline the previous version of this benchmark runs
+after it under that interpreter, so both print the same figures in one run.
 """
 from __future__ import annotations
 
@@ -24,7 +28,12 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from procgen.ca import corrosion as cz
+from _baseline import add_arguments, run_previous
+from procgen import State
+from procgen_layers import corrosion as cz
+from procgen_layers.materials import parse_materials
+from procgen_layers.rules import Corrode, cell_stack_colors
+from procgen_layers.stack import put_thickness, store_table
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.primitives import cup
 from procgen.ca.lifelike import life_step, parse_rule
@@ -65,7 +74,8 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--steps", type=int, default=950)
-    ap.add_argument("--baseline", help="checkout whose Voronoi kernel is timed beside this one")
+    ap.add_argument("--voronoi-baseline", help="checkout whose Voronoi kernel is timed beside this one")
+    add_arguments(ap)
     args = ap.parse_args()
     scale = 0.1 if args.quick else 1.0
 
@@ -79,7 +89,7 @@ def main() -> None:
           f"({sc.n_cells / t_build:,.0f} cells/s)")
     _, t_in = timed(lambda: sc.graph.incoming)
     print(f"graph      : transposed (incoming) links for the frontier in {t_in:.3f} s, once per graph")
-    runs = [("ca.voronoi", VoronoiGrowth)] + ([("baseline", baseline_growth(args.baseline))] if args.baseline else [])
+    runs = [("ca.voronoi", VoronoiGrowth)] + ([("baseline", baseline_growth(args.voronoi_baseline))] if args.voronoi_baseline else [])
     results = {}
     for _ in range(2):                        # alternate twice: both see the same machine load
         for tag, cls in runs:
@@ -88,9 +98,9 @@ def main() -> None:
     final, steps, t_vor = results["ca.voronoi"]
     print(f"voronoi    : {steps} steps to full coverage in {t_vor:.2f} s "
           f"({sc.n_cells * steps / t_vor:,.0f} cell updates/s), best of 2")
-    if args.baseline:
+    if args.voronoi_baseline:
         b_lab, b_steps, b_t = results["baseline"]
-        print(f"  baseline ({args.baseline}): {b_steps} steps in {b_t:.2f} s "
+        print(f"  baseline ({args.voronoi_baseline}): {b_steps} steps in {b_t:.2f} s "
               f"({sc.n_cells * b_steps / b_t:,.0f} cell updates/s); this / baseline speed "
               f"{b_t / t_vor:.2f} x; identical labels: {np.array_equal(b_lab, final)}")
     grow_labels = final
@@ -126,10 +136,11 @@ def main() -> None:
                            product=np.zeros(n), age=np.zeros(n, np.int32),
                            strong=cz.strong_mask(n, 0.3, rng))
     st.status[rng.integers(n)] = cz.CORRODED
-    prm = cz.CorrosionParams()
+    prm = Corrode()                                   # the rule's parameters are the kernel's
+    weights = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
     t0 = time.perf_counter()
     for k in range(args.steps):
-        cz.corrosion_step(sc2.graph, st, prm, np.random.default_rng(k))
+        cz.corrosion_step(sc2.graph, st, prm, np.random.default_rng(k), weights=weights)
     t_pat = time.perf_counter() - t0
     cov = np.mean(st.status != cz.NORMAL)
     print(f"patina     : {args.steps} steps on {n:,} cells ({len(cf)} triangles, built in "
@@ -137,14 +148,28 @@ def main() -> None:
           f"coverage {cov:.1%}")
     print(f"  {t_pat / 60:.2f} x the 60 s target, {1200 / t_pat:,.0f} x faster than the thesis (< 20 min)")
 
+    # -- the same through the layers.corrode rule (fields published every step) ---------------
+    table = parse_materials(["copper", "patina"])
+    state = State(seed=2)
+    state.add_domain("cells", sc2)
+    store_table(sc2, table)
+    put_thickness(sc2, np.column_stack([np.ones(n), np.zeros(n)]), table)
+    rule = Corrode(strong_fraction=0.3)
+    state.step_index, state.rule_name, state.iteration = 0, rule.name, -1
+    rule.setup(state)
+    t0 = time.perf_counter()
+    for k in range(args.steps):
+        state.iteration = k
+        rule.step(state)
+    t_rule = time.perf_counter() - t0
+    print(f"rule       : layers.corrode, {args.steps} steps in {t_rule:.2f} s "
+          f"({n * args.steps / t_rule:,.0f} cell updates/s, {t_rule / t_pat:.2f} x the kernel alone), "
+          f"coverage {np.mean(sc2['corrosion__state'] != cz.NORMAL):.1%}")
+
     # -- export: textured OBJ and GLB of the patinated cup -----------------------------------
     from procgen_surface.exporters import surface_glb, surface_obj
-    from procgen_surface.rules import cell_colors
-    from procgen.materials import parse_materials
-    sc2.set_materials(parse_materials(["copper", "patina"]))
-    sc2.add_field("layers__thickness", np.column_stack([st.consumable[:, 0], st.product]), at="cell")
-    sc2.add_field("surface__rgb", cell_colors(sc2, "layers", lit=False, light=np.zeros(3),
-                                              eye=np.zeros(3)), at="cell")
+    sc2.add_field("surface__color", cell_stack_colors(sc2, lit=False, light=np.zeros(3), eye=np.zeros(3)),
+                  at="cell")
     files, t_obj = timed(surface_obj, sc2, stem="cup")
     glb, t_glb = timed(surface_glb, sc2)
     size = sum(len(b) for b in files.values()) / 1e6
@@ -152,6 +177,8 @@ def main() -> None:
           f"in {t_glb:.2f} s")
     import resource
     print(f"peak memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:,.0f} MB")
+    run_previous("surface.py", args.baseline, args.baseline_rev,
+                 ["--steps", str(args.steps)] + (["--quick"] if args.quick else []))
 
 
 if __name__ == "__main__":

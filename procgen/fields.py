@@ -62,3 +62,25 @@ class FieldInfo:
     at: str
     units: str = ""
     doc: str = ""
+
+
+class UnitsLedger:
+    """Units each (domain, field) was declared with so far in a chain of rules.
+
+    A field name means one thing with one unit everywhere (docs/fields.md); two steps declaring
+    one field of one domain in different units is a broken coupling, caught before anything runs.
+    """
+
+    def __init__(self) -> None:
+        self._seen: dict[tuple[str, str], tuple[str, str]] = {}
+
+    def conflict(self, spec: FieldSpec, where: str) -> str | None:
+        """A one-line message if ``spec`` disagrees with an earlier declaration, else None."""
+        if not spec.units:
+            return None
+        key = (spec.domain, spec.name)
+        seen = self._seen.setdefault(key, (spec.units, where))
+        if seen[0] != spec.units:
+            return (f"field {spec.name!r} on {spec.domain!r} is declared in {spec.units!r} here but in "
+                    f"{seen[0]!r} by {seen[1]} (one field name, one unit: docs/fields.md)")
+        return None

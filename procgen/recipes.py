@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from .ca.cells import kind_accepts, kind_text
 from .domains import DOMAIN_KINDS
 from .errors import PluginError, ProcgenError, RecipeError
+from .fields import UnitsLedger
 from .params import coerce, did_you_mean
 from .rules import RuleBase
 
@@ -260,6 +261,7 @@ class _Flow:
     def __init__(self) -> None:
         self.domains: dict[str, str] = {}
         self.fields: set[tuple[str, str]] = set()
+        self.units = UnitsLedger()
 
     def check_output(self, domain: str, fmt: str, options: dict[str, Any], host: "PluginHost", where: str) -> None:
         if domain not in self.domains:
@@ -347,6 +349,9 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
             raise RecipeError(f"{where}: {exc}") from None
         specs = rule.field_specs()
         for spec in specs:
+            clash = flow.units.conflict(spec, where)
+            if clash:
+                raise RecipeError(f"{where}: {clash}")
             if spec.intent in ("in", "inout") and (spec.domain, spec.name) not in flow.fields:
                 raise RecipeError(f"{where}: needs field {spec.name!r} on domain {spec.domain!r}, "
                                   "which no earlier step produces")

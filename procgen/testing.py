@@ -16,7 +16,8 @@ import copy
 import dataclasses
 import math
 import typing
-from typing import Any
+from pathlib import Path
+from typing import Any, Iterable
 
 import numpy as np
 
@@ -36,9 +37,34 @@ def example_steps(cls: type[RuleBase]) -> list[dict[str, Any]]:
     return steps
 
 
-def run_example(cls: type[RuleBase], host: PluginHost, seed: int = 1) -> State:
-    recipe = check_recipe({"steps": example_steps(cls)}, host, f"<contract {cls.name}>")
+def run_example(cls: type[RuleBase], host: PluginHost, seed: int = 1, *, upto: int | None = None) -> State:
+    """Run the rule's example (its first ``upto`` steps only, if given)."""
+    steps = example_steps(cls)[:upto]
+    if not steps:
+        return State(seed=seed)
+    recipe = check_recipe({"steps": steps}, host, f"<contract {cls.name}>")
     return run(recipe, host, seed=seed, progress=False).state
+
+
+def undeclared_writes(rule: RuleBase, before: State, after: State) -> list[str]:
+    """Fields the rule's step created or changed without declaring them (``domain/field``).
+
+    Fields carried to a created domain under ``passes_fields`` count as declared.
+    """
+    declared = {(s.domain, s.name) for s in rule.field_specs() if s.intent in ("out", "inout")}
+    values = rule.param_values()
+    carried = {out_t.format(**values): in_t.format(**values) for out_t, in_t in rule.passes_fields.items()}
+    bad = []
+    for dname, dom in after.domains.items():
+        old = before.domains.get(dname)
+        src = after.domains.get(carried.get(dname, ""))
+        for fname, arr, _ in dom.fields():
+            if (dname, fname) in declared or (src is not None and fname in src):
+                continue
+            prev = old[fname] if old is not None and fname in old else None
+            if prev is None or prev.shape != arr.shape or not np.array_equal(prev, arr, equal_nan=arr.dtype.kind in "fc"):
+                bad.append(f"{dname}/{fname}")
+    return bad
 
 
 def state_arrays(state: State) -> dict[str, np.ndarray]:
@@ -125,12 +151,45 @@ def check_rule_contract(cls: type[RuleBase], host: PluginHost | None = None) -> 
                 f"{name}: declares field {spec.name!r} on {spec.domain!r} but did not write it"
             assert dom.field_info(spec.name).at == spec.at, \
                 f"{name}: field {spec.name!r} is on {dom.field_info(spec.name).at!r}, declared {spec.at!r}"
+    hidden = undeclared_writes(rule, run_example(cls, host, seed=11, upto=-1), s1)
+    assert not hidden, f"{name}: writes fields it does not declare: {', '.join(hidden)}"
     a1, a2 = state_arrays(s1), state_arrays(s2)
     assert a1.keys() == a2.keys(), f"{name}: same seed gave different domains/fields"
     for key in a1:
-        assert a1[key].shape == a2[key].shape and np.array_equal(a1[key], a2[key], equal_nan=True), \
+        assert a1[key].shape == a2[key].shape and np.array_equal(a1[key], a2[key], equal_nan=a1[key].dtype.kind in "fc"), \
             f"{name}: same seed gave different values for {key}"
     assert all(isinstance(r.changed, bool) for r in s1.records), f"{name}: step() must return bool"
+
+
+def read_field_vocabulary(path: str | Path) -> dict[str, str]:
+    """Field name -> units from the tables of a markdown vocabulary (docs/fields.md); '-' -> ''."""
+    out: dict[str, str] = {}
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) >= 4 and cells[0].startswith("`") and "__" in cells[0]:
+            out[cells[0].strip("`")] = "" if cells[2] == "-" else cells[2]
+    return out
+
+
+def field_vocabulary_problems(rules: Iterable[type[RuleBase]], vocabulary: dict[str, str]) -> list[str]:
+    """Every way the rules' declared fields break the vocabulary: unlisted names, other units,
+    and one name declared with two units by two rules.  Names chosen by a parameter are skipped."""
+    problems: list[str] = []
+    seen: dict[str, tuple[str, str]] = {}
+    for cls in rules:
+        for spec in cls.fields:
+            if "{" in spec.name:
+                continue
+            if spec.name not in vocabulary:
+                problems.append(f"{cls.name}: field {spec.name!r} is not in the field vocabulary")
+            elif spec.units != vocabulary[spec.name]:
+                problems.append(f"{cls.name}: field {spec.name!r} declared in {spec.units or '-'!r}, "
+                                f"the vocabulary says {vocabulary[spec.name] or '-'!r}")
+            first = seen.setdefault(spec.name, (spec.units, cls.name))
+            if first[0] != spec.units:
+                problems.append(f"field {spec.name!r}: {first[1]} declares {first[0] or '-'!r}, "
+                                f"{cls.name} declares {spec.units or '-'!r}")
+    return problems
 
 
 def all_rule_names(host: PluginHost | None = None) -> list[str]:
@@ -139,4 +198,4 @@ def all_rule_names(host: PluginHost | None = None) -> list[str]:
 
 
 __all__ = ["check_rule_contract", "all_rule_names", "run_example", "state_arrays", "example_steps",
-           "ProcgenError"]
+           "undeclared_writes", "read_field_vocabulary", "field_vocabulary_problems", "ProcgenError"]

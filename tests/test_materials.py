@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from procgen.errors import InputError
-from procgen.materials import PRESETS, MaterialTable, parse_materials
+from procgen_layers.materials import PRESETS, MaterialTable, parse_materials
 
 
 def test_presets_and_overrides_parse_to_arrays():

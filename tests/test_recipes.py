@@ -190,13 +190,14 @@ def test_chain_across_families_with_wrong_domain_is_refused(host):
 
 def test_layer_names_are_checked_against_earlier_steps(host):
     surf = {"rule": "water.surface", "params": {"nx": 16, "ny": 16, "layers": ["stone", "copper", "patina"]}}
-    msg = _err(host, {"steps": [surf, {"rule": "water.corrode", "params": {"metal": "coper"}}]},
+    msg = _err(host, {"steps": [surf, {"rule": "layers.corrode", "params": {"cells": "terrain",
+                                                                          "consume": ["coper"]}}]},
                "did you mean 'copper'")
-    assert "steps[1] (water.corrode)" in msg
+    assert "steps[1] (layers.corrode)" in msg
     cells = [{"rule": "mesh.primitive"}, {"rule": "surface.cells", "params": {"target_cells": 100}},
-             {"rule": "surface.layers", "params": {"layers": ["copper", "patina"]}}]
-    _err(host, {"steps": cells + [{"rule": "surface.corrosion", "params": {"product": "patena"}}]},
-         r"steps\[3\] \(surface.corrosion\).*did you mean 'patina'")
+             {"rule": "layers.stack", "params": {"layers": ["copper", "patina"]}}]
+    _err(host, {"steps": cells + [{"rule": "layers.corrode", "params": {"product": "patena"}}]},
+         r"steps\[3\] \(layers.corrode\).*did you mean 'patina'")
 
 
 def test_exporter_option_types_are_checked(host):

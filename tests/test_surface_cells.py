@@ -278,8 +278,8 @@ def test_mesh_fields_carry_onto_cells_and_drive_corrosion(host):
     steps = [{"rule": "grid.noise", "params": {"nx": 12, "ny": 10, "spacing": 0.1}},
              {"rule": "grid.to_mesh"},
              {"rule": "surface.cells", "params": {"mesh": "terrain_mesh", "target_cells": 3000}},
-             {"rule": "surface.layers"},
-             {"rule": "surface.corrosion", "iterations": 3,
+             {"rule": "layers.stack"},
+             {"rule": "layers.corrode", "iterations": 3,
               "params": {"strong_from": "field", "strong_field": "surface__height", "strong_fraction": 0.25}}]
     st = run(check_recipe({"steps": steps}, host), host, seed=2).state
     sc = st.get("cells")
@@ -289,7 +289,7 @@ def test_mesh_fields_carry_onto_cells_and_drive_corrosion(host):
     assert abs(strong.mean() - 0.25) < 1e-3
     assert sc["surface__height"][strong].min() >= sc["surface__height"][~strong].max()   # the highest quarter
     bad = [dict(s) for s in steps]
-    bad[-1] = {"rule": "surface.corrosion", "params": {"strong_from": "field"}}
+    bad[-1] = {"rule": "layers.corrode", "params": {"strong_from": "field"}}
     import pytest
 
     from procgen import RecipeError

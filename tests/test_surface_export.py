@@ -15,8 +15,9 @@ from procgen_surface.domain import SurfaceCells
 from procgen_surface.export_mesh import displaced_mesh, obj_files, pack_atlas
 from procgen.exchange.preview import render_mesh_png
 from procgen_surface.primitives import cup, lattice
-from procgen_surface.shading import shade_cells
-from procgen.materials import parse_materials
+from procgen_layers.materials import parse_materials
+from procgen_layers.rules import cell_stack_colors
+from procgen_layers.stack import put_thickness, store_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -103,12 +104,15 @@ def test_obj_and_glb_load_back_with_the_expected_counts(tmp_path):
 def test_shading_single_layer_and_opaque_top():
     sc = sphere_cells(1, 0.1)
     table = parse_materials(["copper", "patina"])
+    store_table(sc, table)
     t = np.zeros((sc.n_cells, 2))
     t[:, 0] = 1.0
-    rgb = shade_cells(sc.normal, t, table, lit=False)
+    put_thickness(sc, t, table)
+    rgb = cell_stack_colors(sc, lit=False, light=np.zeros(3), eye=np.zeros(3))
     np.testing.assert_allclose(rgb, np.tile(table[0].color, (sc.n_cells, 1)), atol=1e-12)
     t[:, 1] = 50.0                                      # thick, fairly opaque patina hides copper
-    rgb = shade_cells(sc.normal, t, table, lit=False)
+    put_thickness(sc, t, table)
+    rgb = cell_stack_colors(sc, lit=False, light=np.zeros(3), eye=np.zeros(3))
     np.testing.assert_allclose(rgb, np.tile(table[1].color, (sc.n_cells, 1)), atol=1e-6)
 
 
@@ -135,17 +139,17 @@ rule = "surface.cells"
 params = { target_cells = 6000 }
 
 [[steps]]
-rule = "surface.layers"
+rule = "layers.stack"
 params = { layers = [ { preset = "copper", thickness = 0.3, noise = 0.05 }, { preset = "patina", thickness = 0.0 } ] }
 
 [[steps]]
-rule = "surface.corrosion"
+rule = "layers.corrode"
 iterations = 60
 params = { k1 = 0.01, seed_rate = 0.001, b0 = 1.3 }
 frames = { every = 30, domain = "cells", format = "surface_png", options = { width = 120, height = 100 } }
 
 [[steps]]
-rule = "surface.shade"
+rule = "layers.shade"
 
 [[outputs]]
 domain = "cells"
@@ -177,7 +181,7 @@ def test_recipe_end_to_end_is_deterministic_and_readable(host, tmp_path):
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
     st = State.load(tmp_path / "a" / "state.npz")
     sc = st.get("cells", SurfaceCells)
-    status = sc["corrosion__status"]
+    status = sc["corrosion__state"]
     t = sc["layers__thickness"]
     assert np.array_equal(status == 2, t[:, 0] <= 0)
     assert (status == 2).any() and (status == 1).any()
@@ -198,14 +202,14 @@ def test_bad_recipe_parameters_are_refused(host, tmp_path):
     with pytest.raises(Exception, match="exactly one"):
         load_recipe(p, host)
     p.write_text(SMALL.replace('{ preset = "patina", thickness = 0.0 }', '{ preset = "patina", thikness = 0.0 }'))
-    with pytest.raises(RecipeError, match=r"steps\[2\] \(surface.layers\).*thikness"):
+    with pytest.raises(RecipeError, match=r"steps\[2\] \(layers.stack\).*thikness"):
         load_recipe(p, host)            # refused by procgen check, before any compute
 
 
 def test_vertex_colour_and_untextured_exports():
     from procgen_surface.exporters import surface_glb, surface_obj
     sc = sphere_cells(1, 0.08)
-    sc.add_field("surface__rgb", np.tile([1.0, 0.0, 0.0], (sc.n_cells, 1)), at="cell")
+    sc.add_field("surface__color", np.tile([1.0, 0.0, 0.0], (sc.n_cells, 1)), at="cell")
     files = surface_obj(sc, stem="v", vertex_colors=True, textured=False)
     assert set(files) == {"v.obj"}     # no material: readers then keep the vertex colours
     rows = [l.split() for l in files["v.obj"].decode().splitlines() if l.startswith("v ")]
@@ -224,6 +228,7 @@ def test_saved_state_loads_after_plugin_discovery_alone(host, tmp_path):
     run_small(host, tmp_path, "c")
     code = ("from procgen import get_plugin_manager, State; get_plugin_manager(); "
             f"s = State.load({str(tmp_path / 'c' / 'state.npz')!r}); "
-            "print(s.domains['cells'].kind, s.domains['cells'].materials.names)")
+            "from procgen_layers.stack import load_table; "
+            "print(s.domains['cells'].kind, load_table(s.domains['cells']).names)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["SurfaceCells", "('copper',", "'patina')"]

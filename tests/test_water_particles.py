@@ -6,10 +6,11 @@ import copy
 import numpy as np
 import pytest
 
-from procgen.materials import parse_materials
+from procgen_layers.materials import parse_materials
 from procgen_water import particles as P
 from procgen_water.layers import base_surface
 from procgen_water.reference import step_loop
+from procgen_water.rules import WaterDrops
 
 
 def _thesis_case(seed=3, n=400, crowd=60, evaporation=0.01, threshold=0.3):
@@ -23,7 +24,7 @@ def _thesis_case(seed=3, n=400, crowd=60, evaporation=0.01, threshold=0.3):
     t[..., 0] = 0.5
     t[4:16, 4:16, 1] = 0.3
     s = P.make_surface(base, t, tab)
-    p = P.WaterParams(evaporation=evaporation, adhesion=0.2)
+    p = WaterDrops(evaporation=evaporation, adhesion=0.2)
     d = P.emit(s, p, rng, n, "uniform")
     d.pos[:crowd] = d.pos[0]                 # many drops in one cell: the sharing must conserve
     d.pos[crowd:2 * crowd] = np.array([10.5, 10.5])   # and a crowd on the patina patch
@@ -37,7 +38,7 @@ def _capacity_case(seed=5, footprint="bilinear", fade=False):
     rng = np.random.default_rng(seed)
     base = base_surface("fbm", (ny, nx), 1.0, rng, amplitude=4.0, tilt_deg=15)
     s = P.make_surface(base, np.full((ny, nx, 1), 5.0), tab)
-    p = P.WaterParams(sediment_capacity=2.0, footprint=footprint, max_age=15, evaporation=0.0,
+    p = WaterDrops(sediment_capacity=2.0, footprint=footprint, max_age=15, evaporation=0.0,
                       capacity_fade=fade)
     d = P.emit(s, p, rng, 300, "uniform")
     d.pos[:40] = d.pos[0]
@@ -100,7 +101,7 @@ def test_dry_grid_without_drops_is_unchanged_and_drops_never_evaporate():
     # non-absorbent surface: drops lose no water to the air, only to the edges
     tab = parse_materials(["rock"])
     s = P.make_surface(np.zeros((10, 10)), np.ones((10, 10, 1)), tab)
-    p = P.WaterParams(evaporation=0.5)
+    p = WaterDrops(evaporation=0.5)
     d = P.emit(s, p, np.random.default_rng(0), 50, "uniform")
     for _ in range(5):
         d = P.step(s, d, p)
@@ -115,7 +116,7 @@ def test_evaporation_only_where_held_and_proportional_to_true_area():
     held = s.held.reshape(ny, nx)                               # a view of the (ncell, 1) array
     held[:] = 0.3
     held[::2] = 0.0                                             # every other row dry
-    p = P.WaterParams(evaporation=0.01)
+    p = WaterDrops(evaporation=0.01)
     P.step(s, P.Drops.empty(), p)
     ev = s.evaporated.reshape(ny, nx)
     assert np.all(ev[::2] == 0)
@@ -131,7 +132,7 @@ def test_drops_on_a_45_degree_plane_run_down_the_slope():
     ny, nx = 60, 40
     base = base_surface("tilt", (ny, nx), 1.0, None, tilt_deg=45.0)     # high at large y
     s = P.make_surface(base, np.ones((ny, nx, 1)), tab)
-    p = P.WaterParams()
+    p = WaterDrops()
     d = P.emit(s, p, np.random.default_rng(1), 500, "top", 0.2)
     y0, x0 = d.pos[:, 1].mean(), d.pos[:, 0].mean()
     for _ in range(10):
@@ -171,7 +172,7 @@ def test_same_seed_same_arrays():
 def test_emission_modes_put_drops_where_asked():
     tab = parse_materials(["rock"])
     s = P.make_surface(np.zeros((30, 40)), np.ones((30, 40, 1)), tab)
-    p = P.WaterParams()
+    p = WaterDrops()
     rng = np.random.default_rng(0)
     top = P.emit(s, p, rng, 400, "top", 0.2)
     assert np.all(top.pos[:, 1] >= 24) and np.all(top.pos[:, 1] < 30)
@@ -189,7 +190,7 @@ def test_one_drop_one_step_matches_hand_computation():
     tab = parse_materials([{"preset": "red_patina", "capacity": 0.5, "absorption_rate": 0.3,
                             "erosion_rate": 0.05, "weakness_threshold": 0.2, "roughness": 0.2}])
     s = P.make_surface(np.zeros((5, 5)), np.ones((5, 5, 1)), tab, held=np.full((5, 5, 1), 0.4))
-    p = P.WaterParams(evaporation=0.0, friction=0.05, gravity=1.0)
+    p = WaterDrops(evaporation=0.0, friction=0.05, gravity=1.0)
     d = P.Drops(np.array([[2.2, 2.5]]), np.array([[0.5, 0.0]]), np.array([1.0]), np.array([0.0]),
                 np.array([-1]), np.array([True]), np.array([0]))
     d = P.step(s, d, p)

@@ -1,4 +1,5 @@
-"""The colour map (Phong per layer, light through layers) and the drops SVG exporter."""
+"""The colour map of a 2.5-D stack (Phong per layer, light through layers, wet look, drops film)
+and the drops SVG exporter."""
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
@@ -7,9 +8,17 @@ import numpy as np
 
 from procgen import PointSet
 from procgen.lighting import light_direction, phong
-from procgen.materials import parse_materials
+from procgen_layers.light import shade_stack
+from procgen_layers.materials import PRESETS, parse_materials
 from procgen_water.exporters import drops_svg
-from procgen_water.render import render_layers
+
+
+def render_layers(base, t, tab, *, azimuth=135.0, elevation=50.0, water_depth=None, **kw):
+    """A flat 2.5-D stack seen from above, as layers.shade shades a Grid (every normal up)."""
+    up = np.zeros(t.shape[:-1] + (3,))
+    up[..., 2] = 1.0
+    return shade_stack(up, t, tab, light=light_direction(azimuth, elevation), film=water_depth,
+                       film_normals=up, film_material=PRESETS["water"], **kw)
 
 
 def test_single_flat_layer_renders_its_lit_colour_and_holes_show_background():

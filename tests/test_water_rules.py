@@ -65,9 +65,9 @@ def test_same_seed_same_bytes(host, tmp_path):
 def test_corrosion_recipe_runs_and_reports(host, tmp_path):
     _run(host, tmp_path, "terrain/plate-2-1", ["steps.0.params.nx=48", "steps.0.params.ny=48",
                                                "steps.2.iterations=20", "steps.2.params.seed_rate=0.002"])
-    rep = json.loads((tmp_path / "run.json").read_text())["reports"]["step2.corrosion"]
-    assert 0 < rep["new_seeds"] <= 6 and rep["attack_limit_violations"] == 0
-    assert 0 < rep["corroded_fraction"] < 1
+    rep = json.loads((tmp_path / "run.json").read_text())["reports"]
+    assert 0 < rep["terrain.corrosion.seeds"] <= 6 and rep["terrain.corrosion.attack_limit_violations"] == 0
+    assert 0 < rep["terrain.corrosion.corroded_fraction"] < 1
 
 
 BAD = [
@@ -92,7 +92,7 @@ def test_bad_input_gives_one_line_errors_from_check(tmp_path, layers, msg):
 
 
 def test_unknown_layer_in_corrosion_is_a_one_line_input_error(host, tmp_path):
-    with pytest.raises(RecipeError, match=r"steps\[2\] \(water.corrode\): metal: no layer named 'coper' "
-                                          r"\(did you mean 'copper'\?\)"):
+    with pytest.raises(RecipeError, match=r"steps\[2\] \(layers.corrode\): layers.corrode.consume: no layer "
+                                          r"named 'coper' \(did you mean 'copper'\?\)"):
         load_recipe("terrain/plate-2-1", host, ["steps.0.params.nx=16", "steps.0.params.ny=16",
-                                                "steps.2.params.metal=coper", "steps.2.iterations=2"])
+                                                'steps.2.params.consume=["coper"]', "steps.2.iterations=2"])

@@ -16,7 +16,6 @@ import numpy as np
 from procgen import geometry as geo
 from procgen.domains import Domain, frozen, register_domain_kind
 from procgen.errors import InputError
-from procgen.materials import MaterialTable, parse_materials
 
 from .geometry import CellLayout, FaceFrames, build_cells, choose_cell_size
 from .neighbours import build_neighbours, orientation_errors
@@ -45,8 +44,6 @@ class SurfaceCells(Domain):
         self.frame = str(meta.get("frame", "thesis"))
         self.neighbours = str(meta.get("neighbours", "unfold"))
         self.n_degenerate = int(meta.get("n_degenerate", 0))
-        recs = meta.get("materials")
-        self.materials: MaterialTable | None = parse_materials(recs) if recs else None
 
     # -- construction ---------------------------------------------------------------------
     @classmethod
@@ -122,17 +119,13 @@ class SurfaceCells(Domain):
         return np.asarray(self["cell__alive"], bool) if "cell__alive" in self else \
             np.ones(self.n_cells, bool)
 
-    def set_materials(self, table: MaterialTable) -> None:
-        self.materials = table
-
     # -- persistence ----------------------------------------------------------------------
     def topology_arrays(self) -> dict[str, np.ndarray]:
         return {k: getattr(self, k) for k in _TOPOLOGY}
 
     def topology_meta(self) -> dict[str, Any]:
         return {"size": self.size, "frame": self.frame, "neighbours": self.neighbours,
-                "n_degenerate": self.n_degenerate,
-                "materials": self.materials.to_records() if self.materials else None}
+                "n_degenerate": self.n_degenerate}
 
     @classmethod
     def from_topology(cls, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> "SurfaceCells":

@@ -191,7 +191,7 @@ def as_trimesh(mesh: DisplacedMesh, atlas: Atlas | None) -> TriMesh:
     every plugin.
     """
     tm = TriMesh(mesh.vertices, mesh.faces)
-    tm.add_field("surface__rgb", mesh.vertex_rgb, at="vertex", doc="colour of the cell under each vertex")
+    tm.add_field("surface__color", mesh.vertex_rgb, at="vertex", doc="colour of the cell under each vertex")
     if atlas is not None:
         tm.add_field("surface__uv", mesh.corner_uv, at="face", doc="atlas UV of each face corner")
         tm.add_field("surface__texture", atlas.image, at="domain", doc="RGBA atlas; alpha 0 = hole")
@@ -205,7 +205,7 @@ def obj_files(mesh: DisplacedMesh, atlas: Atlas | None, *, name: str, provenance
 
     tm = as_trimesh(mesh, atlas)
     textured = {"uv_field": "surface__uv", "texture_field": "surface__texture"} if atlas is not None else {}
-    color = {"color_field": "surface__rgb"} if (vertex_colors or atlas is None) else {}
+    color = {"color_field": "surface__color"} if (vertex_colors or atlas is None) else {}
     return obj_export(tm, stem=name, provenance=provenance, **textured, **color)
 
 
@@ -216,4 +216,4 @@ def glb_bytes(mesh: DisplacedMesh, atlas: Atlas | None, provenance: dict | None 
     tm = as_trimesh(mesh, atlas)
     if atlas is not None:
         return glb_export(tm, provenance=provenance, uv_field="surface__uv", texture_field="surface__texture")
-    return glb_export(tm, provenance=provenance, color_field="surface__rgb")
+    return glb_export(tm, provenance=provenance, color_field="surface__color")

@@ -9,10 +9,31 @@ import numpy as np
 from procgen import Exporter, InputError, Polylines
 from procgen.lighting import light_direction
 
+from procgen_layers.rules import cell_stack_colors
+from procgen_layers.stack import has_stack
+
 from .domain import SurfaceCells
+from .shading import label_colors
 from .export_mesh import (DisplacedMesh, displaced_mesh, glb_bytes, obj_files, pack_atlas,
                           subdivision_level)
 from procgen.exchange.preview import camera_basis
+
+
+def cell_colors(sc: SurfaceCells, color_by: str, *, lit: bool, light: np.ndarray,
+                eye: np.ndarray) -> np.ndarray:
+    """Per-cell colours by what the exporters are asked to show (labels, cells, state, layers)."""
+    if color_by == "voronoi":
+        return label_colors(np.asarray(sc["voronoi__label"]))
+    if color_by == "cells":
+        # checkerboard of the per-triangle grids; PART-IN cells darker, triangles tinted
+        checker = (sc.ij.sum(axis=1) + sc.face) % 2
+        base = label_colors(sc.face % 12 + 1, seed=3)
+        rgb = base * np.where(checker, 1.0, 0.75)[:, None]
+        return rgb * np.where(sc.comp_in, 1.0, 0.55)[:, None]
+    if color_by == "status":
+        pal = np.array([[0.80, 0.45, 0.25], [0.30, 0.68, 0.52], [0.05, 0.05, 0.05]])
+        return pal[np.asarray(sc["corrosion__state"])]
+    return cell_stack_colors(sc, lit=lit, light=light, eye=eye)
 
 
 def _check(domain: Any, fmt: str) -> SurfaceCells:
@@ -29,7 +50,6 @@ def _heights(sc: SurfaceCells) -> np.ndarray:
 
 def _colors(sc: SurfaceCells, field: str) -> np.ndarray:
     """Colours per cell: a field name (n, 3), or 'voronoi' / 'status' / 'cells' / 'layers'."""
-    from .rules import cell_colors
     if field in ("voronoi", "status", "cells"):
         return cell_colors(sc, field, lit=False, light=np.zeros(3), eye=np.zeros(3))
     if field == "layers":
@@ -39,15 +59,15 @@ def _colors(sc: SurfaceCells, field: str) -> np.ndarray:
         if rgb.shape != (sc.n_cells, 3):
             raise InputError(f"surface export: field {field!r} must be (n_cells, 3), got {rgb.shape}")
         return np.clip(rgb, 0, 1)
-    if field != "surface__rgb":
+    if field != "surface__color":
         raise InputError(f"surface export: no field {field!r} (and not one of voronoi, status, "
                          "cells, layers)")
-    if "layers__thickness" in sc and sc.materials is not None:
+    if has_stack(sc):
         return cell_colors(sc, "layers", lit=False, light=np.zeros(3), eye=np.zeros(3))
     return np.full((sc.n_cells, 3), 0.7)
 
 
-def build_export(sc: SurfaceCells, *, color_by: str = "surface__rgb", texels: int = 2,
+def build_export(sc: SurfaceCells, *, color_by: str = "surface__color", texels: int = 2,
                  cells_per_segment: float = 4.0, exaggerate: float = 0.02,
                  max_triangles: int = 1_500_000, textured: bool = True):
     """(DisplacedMesh, Atlas | None) of a SurfaceCells domain."""
@@ -64,7 +84,7 @@ def build_export(sc: SurfaceCells, *, color_by: str = "surface__rgb", texels: in
 
 
 def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
-                color_by: str = "surface__rgb", texels: int = 2, cells_per_segment: float = 4.0,
+                color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, vertex_colors: bool = False,
                 textured: bool = True, max_triangles: int = 1_500_000) -> dict[str, bytes]:
     """OBJ + MTL + PNG atlas of the cells, displaced by the stacked layer thickness."""
@@ -76,7 +96,7 @@ def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
 
 
 def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                color_by: str = "surface__rgb", texels: int = 2, cells_per_segment: float = 4.0,
+                color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, textured: bool = True,
                 max_triangles: int = 1_500_000) -> bytes:
     """Binary glTF of the same displaced, textured mesh (vertex colours if not textured)."""
@@ -100,7 +120,6 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     """
     from .export_mesh import cell_under
     from procgen.exchange.preview import encode_png, face_id_buffer, pixel_barycentric, project
-    from .rules import cell_colors
 
     sc = _check(domain, "surface_png")
     if up not in ("x", "y", "z"):

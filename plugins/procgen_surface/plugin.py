@@ -14,10 +14,8 @@ from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domai
 
 @hookimpl
 def procgen_register_rules():
-    from .rules import (BuildCells, CupPrimitive, LatticePrimitive, ShadeCells,
-                        SurfaceCorrosion, SurfaceLayers)
-    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceLayers,
-            SurfaceCorrosion, ShadeCells]
+    from .rules import BuildCells, CupPrimitive, LatticePrimitive
+    return [CupPrimitive, LatticePrimitive, BuildCells]
 
 
 @hookimpl

@@ -1,7 +1,7 @@
 """The 2.5D multi-layer surface: base height plus stacked layer thicknesses (thesis 2.4.1).
 
 A layer spec is a recipe dict mixing geometry keys (below) with material keys
-(:mod:`procgen.materials`).  Geometry: nominal ``thickness``; ``noise`` amplitude (same units)
+(:mod:`procgen_layers.materials`).  Geometry: nominal ``thickness``; ``noise`` amplitude (same units)
 of a midpoint-displacement field with Hurst exponent ``hurst``; ``smoothness`` (Gaussian sigma in
 cells, applied to the noise, digest #29); and where the layer exists: ``coverage`` (fraction of
 the grid, patches from smooth noise), ``rect`` [x0, y0, x1, y1] (fractions of the extent),
@@ -16,7 +16,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from procgen.errors import InputError
-from procgen.materials import MaterialTable, split_layer_specs
+from procgen_layers.materials import MaterialTable, split_layer_specs
 
 from .noise import midpoint_displacement, rank_normalise, smooth
 

@@ -46,37 +46,14 @@ Ledgers (exact to float rounding at every step):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from procgen.errors import InputError
 
-Footprint = Literal["cell", "bilinear", "disc"]
-
-
-@dataclass
-class WaterParams:
-    """Numbers of the drop model (see the module docstring for what each one does)."""
-
-    drop_volume: float = 1.0
-    gravity: float = 1.0
-    friction: float = 0.05
-    adhesion: float = 0.0
-    contact_angle: float = 60.0
-    max_speed: float = 1.0
-    stable_speed: float = 0.02
-    max_age: int = 0
-    speed_ref: float = 0.5
-    evaporation: float = 0.002
-    sediment_capacity: float | None = None
-    min_slope: float = 0.01
-    deposition_rate: float = 0.3
-    max_concentration: float = 1.0
-    footprint: Footprint = "cell"
-    brush_radius: float = 2.5
-    erode_stabilised: bool = False
-    capacity_fade: bool = False
+if TYPE_CHECKING:                      # the drop model's numbers are the water.drops rule's parameters
+    from .rules import WaterDrops
 
 
 @dataclass
@@ -253,7 +230,7 @@ def surface_gradient(s: Surface, h: np.ndarray | None = None) -> tuple[np.ndarra
 # --------------------------------------------------------------------------------------------
 # emission
 
-def emit(s: Surface, p: WaterParams, rng: np.random.Generator, n: int, mode: str = "uniform",
+def emit(s: Surface, p: "WaterDrops", rng: np.random.Generator, n: int, mode: str = "uniform",
          band: float = 0.1, weights: np.ndarray | None = None) -> Drops:
     """``n`` new drops at rest: uniform, in the top band (largest y), or with cell weights."""
     ny, nx = s.shape
@@ -301,7 +278,7 @@ def _height_at(h: np.ndarray, pos: np.ndarray, shape: tuple[int, int]) -> np.nda
     return np.sum(h[cells] * w, axis=1)
 
 
-def move(s: Surface, d: Drops, p: WaterParams, gx: np.ndarray, gy: np.ndarray,
+def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
          h: np.ndarray | None = None) -> tuple[Drops, np.ndarray, np.ndarray]:
     """Advance moving drops one step; drain those that leave.
 
@@ -392,7 +369,7 @@ def _footprint(pos: np.ndarray, shape: tuple[int, int], mode: Footprint, radius:
     return _cell_of(pos, shape)[:, None], np.ones((len(pos), 1))
 
 
-def _deposit(s: Surface, d: Drops, idx: np.ndarray, amount: np.ndarray, p: WaterParams) -> None:
+def _deposit(s: Surface, d: Drops, idx: np.ndarray, amount: np.ndarray, p: "WaterDrops") -> None:
     """Lay ``amount`` of sediment from drops ``idx`` onto their footprint, into their kind layer."""
     sel = amount > 0
     idx, amount = idx[sel], amount[sel]
@@ -410,7 +387,7 @@ def _deposit(s: Surface, d: Drops, idx: np.ndarray, amount: np.ndarray, p: Water
     d.sediment[idx] -= amount
 
 
-def _fade(age: np.ndarray, p: WaterParams) -> np.ndarray | float:
+def _fade(age: np.ndarray, p: "WaterDrops") -> np.ndarray | float:
     """Capacity factor 1 - age/max_age with ``capacity_fade`` (drops lay their load gradually
     and reach max_age nearly empty instead of dumping it where they stop), else 1."""
     if not p.capacity_fade or p.max_age <= 0:
@@ -418,7 +395,7 @@ def _fade(age: np.ndarray, p: WaterParams) -> np.ndarray | float:
     return np.clip(1.0 - age / p.max_age, 0.0, 1.0)
 
 
-def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.ndarray,
+def interact(s: Surface, d: Drops, p: "WaterDrops", speed: np.ndarray, gx: np.ndarray,
              gy: np.ndarray, dh: np.ndarray | None = None) -> Drops:
     """Absorption, deposition, erosion for every drop with water; removes empty drops."""
     n = len(d)
@@ -536,7 +513,7 @@ def interact(s: Surface, d: Drops, p: WaterParams, speed: np.ndarray, gx: np.nda
     return d
 
 
-def evaporate(s: Surface, p: WaterParams, gx: np.ndarray, gy: np.ndarray) -> None:
+def evaporate(s: Surface, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray) -> None:
     """Held water evaporates at ``evaporation`` per unit of true surface area of the cell,
     taken from the top-most wet layer first (a thin deposit does not seal the layer below)."""
     if p.evaporation <= 0:
@@ -555,7 +532,7 @@ def evaporate(s: Surface, p: WaterParams, gx: np.ndarray, gy: np.ndarray) -> Non
     s.evaporated[wet] += total
 
 
-def step(s: Surface, d: Drops, p: WaterParams) -> Drops:
+def step(s: Surface, d: Drops, p: "WaterDrops") -> Drops:
     """One time step: move, interact, evaporate; record moving-drop visits in ``path``."""
     release_excess(s)
     h = s.height()

@@ -8,10 +8,14 @@ Grid-wide operations that do not depend on drops (the height gradient) use numpy
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .particles import Drops, Surface, WaterParams, surface_gradient
+from .particles import Drops, Surface, surface_gradient
+
+if TYPE_CHECKING:
+    from .rules import WaterDrops
 
 
 def _cell(x: float, y: float, nx: int, ny: int) -> int:
@@ -30,7 +34,7 @@ def _bilin(x: float, y: float, nx: int, ny: int) -> list[tuple[int, float]]:
     return [(c, (1 - fu) * (1 - fv)), (c + 1, fu * (1 - fv)), (c + nx, (1 - fu) * fv), (c + nx + 1, fu * fv)]
 
 
-def _foot(x: float, y: float, nx: int, ny: int, p: WaterParams) -> list[tuple[int, float]]:
+def _foot(x: float, y: float, nx: int, ny: int, p: "WaterDrops") -> list[tuple[int, float]]:
     if p.footprint == "bilinear":
         return _bilin(x, y, nx, ny)
     if p.footprint == "disc":
@@ -59,7 +63,7 @@ def _cap(s: Surface, c: int, l: int) -> float:
     return s.capacity[l] * s.thickness[c, l] * s.cell_area if l >= 0 else 0.0
 
 
-def _deposit(s: Surface, d: Drops, i: int, amount: float, p: WaterParams) -> None:
+def _deposit(s: Surface, d: Drops, i: int, amount: float, p: "WaterDrops") -> None:
     if amount <= 0:
         return
     ny, nx = s.shape
@@ -70,7 +74,7 @@ def _deposit(s: Surface, d: Drops, i: int, amount: float, p: WaterParams) -> Non
     d.sediment[i] -= amount
 
 
-def step_loop(s: Surface, d: Drops, p: WaterParams) -> Drops:
+def step_loop(s: Surface, d: Drops, p: "WaterDrops") -> Drops:
     """Same semantics as :func:`particles.step`, drop by drop."""
     ny, nx = s.shape
     a = s.cell_area

@@ -1,7 +1,10 @@
-"""procgen rules of the water family: surface, drops, weak map, corrosion, render."""
+"""procgen rules of the water family: 2.5-D surface, drops, weak map, snapshots.
+
+Corrosion and shading of the layer stack are the layered-materials family's (layers.corrode,
+layers.shade); they run on the grids this family builds."""
 from __future__ import annotations
 
-from dataclasses import dataclass, fields as dc_fields
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -9,12 +12,14 @@ import numpy as np
 from procgen import FieldSpec, Grid, InputError, RuleBase, State, param
 from procgen.fields import check_field_name
 
+from procgen_layers.stack import THICKNESS, store_table, table_field_specs
+
 from . import particles as P
-from .corrosion import REGROUP_POWERS, CorrosionParams, corrosion_step, weak_cells, weakness_score
+from .weak_map import REGROUP_POWERS, weak_cells, weakness_score
 from .layers import base_surface, check_grid, layer_thickness, parse_layers
-from .render import render_layers, water_depth_map
-from .state_io import (drops_from_domain, drops_to_domain, ensure_water_fields,
-                       store_table, surface_view, update_derived)
+from .render import water_depth_map
+from .state_io import (drop_specs, drops_from_domain, drops_to_domain, ensure_water_fields, map_specs,
+                       surface_view, update_derived)
 
 SURF = "{grid}"
 _DEFAULT_LAYERS: list[Any] = [{"preset": "stone", "thickness": 1.0, "noise": 0.05, "hurst": 0.7},
@@ -26,7 +31,7 @@ _SMALL = ({"rule": "water.surface", "params": {"nx": 24, "ny": 20}},)
 class MultiLayerSurface(RuleBase):
     """A 2.5D multi-layer surface: base relief plus stacked layers of given materials.
 
-    Each layer has a material (preset name and/or properties: see procgen.materials) and a
+    Each layer has a material (preset name and/or properties: see procgen_layers.materials) and a
     thickness map: nominal thickness + midpoint-displacement noise (Hurst exponent) smoothed by
     the smoothness coefficient, restricted to a coverage / rect / spots mask (thesis 2.4.1).
     ``base = 'grid'`` lays the layers on a Grid an earlier step made (grid.load: a heightmap,
@@ -35,16 +40,15 @@ class MultiLayerSurface(RuleBase):
 
     name: ClassVar[str] = "water.surface"
     example: ClassVar[tuple[dict, ...]] = _SMALL
-    creates: ClassVar[dict[str, str]] = {SURF: "Grid", "{grid}_materials": "PointSet"}
+    creates: ClassVar[dict[str, str]] = {SURF: "Grid"}
     passes_fields: ClassVar[dict[str, str]] = {SURF: "{base_grid}"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("surface__base", SURF, "cell", "out", units="length", doc="substrate height"),
-        FieldSpec("surface__thickness", SURF, "cell", "out", units="length", doc="thickness per layer"),
-        FieldSpec("surface__layer_top", SURF, "cell", "out", units="length", doc="top of each layer"),
+        FieldSpec(THICKNESS, SURF, "cell", "out", units="length", doc="thickness per layer, bottom first"),
+        FieldSpec("layers__top", SURF, "cell", "out", units="length", doc="top of each layer"),
         FieldSpec("surface__height", SURF, "cell", "out", units="length", doc="top surface"),
-        FieldSpec("water__held", SURF, "cell", "out", units="volume", doc="water held per layer"),
-        FieldSpec("sediment__baseline", SURF, "cell", "out", units="volume", doc="initial solid"),
-    )
+        FieldSpec("water__saturation", SURF, "cell", "out", units="1", doc="held water / capacity of the exposed layer"),
+    ) + map_specs(SURF, "out") + table_field_specs(SURF)
 
     grid: str = param("terrain", doc="name of the Grid to create")
     nx: int = param(128, ge=3, le=8192, units="cells", doc="cells across")
@@ -89,22 +93,20 @@ class MultiLayerSurface(RuleBase):
             base = base_surface(self.base, shape, self.spacing, rng, amplitude=self.base_amplitude,
                                 hurst=self.base_hurst, smoothness=self.base_smoothness, tilt_deg=self.tilt_deg)
         t = np.stack([layer_thickness(geo, shape, rng) for geo in geos], axis=-1)
-        g = Grid(shape, spacing, origin, layers=table.names)
+        g = Grid(shape, spacing, origin)
         for name, arr, info in (src.fields() if src is not None else ()):
             if name not in {spec.name for spec in self.fields}:
                 g.add_field(name, arr.copy(), at=info.at, units=info.units, doc=info.doc)
         g.add_field("surface__base", base, at="cell", units="length", doc="substrate height")
-        g.add_field("surface__thickness", t, at="cell", units="length", doc="thickness per layer")
+        g.add_field(THICKNESS, t, at="cell", units="length",
+                    doc="thickness per layer, bottom first: " + ", ".join(table.names))
+        store_table(g, table)
         state.add_domain(self.grid, g)
-        store_table(state, self.grid, table)
-        ensure_water_fields(g)
+        ensure_water_fields(g, len(table))
         g["sediment__baseline"] = t.sum(axis=-1) * spacing ** 2
         _, s, _ = surface_view(state, self.grid)
         update_derived(g, s, table)
         return True
-
-
-_WP = P.WaterParams()
 
 
 @dataclass(kw_only=True)
@@ -125,15 +127,13 @@ class WaterDrops(RuleBase):
     uses: ClassVar[dict[str, str]] = {SURF: "Grid"}
     creates: ClassVar[dict[str, str]] = {"{drops_domain}": "PointSet"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec("surface__thickness", SURF, "cell", "inout", units="length"),
-        FieldSpec("water__held", SURF, "cell", "inout", units="volume"),
+        FieldSpec(THICKNESS, SURF, "cell", "inout", units="length"),
         FieldSpec("surface__height", SURF, "cell", "inout", units="length"),
-        FieldSpec("water__path", SURF, "cell", "out", units="visits"),
+        FieldSpec("layers__top", SURF, "cell", "inout", units="length"),
         FieldSpec("water__depth", SURF, "cell", "out", units="length"),
         FieldSpec("water__saturation", SURF, "cell", "out", units="1"),
-        FieldSpec("sediment__deposit", SURF, "cell", "out", units="length"),
-        FieldSpec("drop__volume", "{drops_domain}", "point", "out", units="volume"),
-    )
+    ) + map_specs(SURF, "inout", ("water__held", "sediment__deposit", "water__emitted", "water__evaporated",
+                                  "water__drained", "sediment__drained", "water__path")) + drop_specs("{drops_domain}")
 
     grid: str = param("terrain", doc="Grid built by water.surface")
     drops_domain: str = param("drops", doc="PointSet holding the drops between steps")
@@ -143,22 +143,22 @@ class WaterDrops(RuleBase):
     emission: str = param("uniform", choices=("uniform", "top", "weights"), doc="where drops appear")
     band: float = param(0.1, gt=0.0, le=1.0, doc="height of the top band, fraction of the grid")
     weights_field: str = param("", doc="cell field of emission weights (emission = 'weights')")
-    drop_volume: float = param(_WP.drop_volume, gt=0.0, units="volume", doc="initial drop volume")
-    gravity: float = param(_WP.gravity, ge=0.0, units="length/step^2", doc="gravity")
-    friction: float = param(_WP.friction, ge=0.0, le=1.0, doc="viscous damping of velocity per step")
-    adhesion: float = param(_WP.adhesion, ge=0.0, doc="contact adhesion (per contact area)")
-    contact_angle: float = param(_WP.contact_angle, gt=0.0, le=180.0, units="deg", doc="drop contact angle")
-    max_speed: float = param(_WP.max_speed, gt=0.0, le=1.0, units="cells/step", doc="speed cap")
-    stable_speed: float = param(_WP.stable_speed, ge=0.0, units="cells/step", doc="below: drop may stabilise")
-    max_age: int = param(_WP.max_age, ge=0, units="steps", doc="stabilise after this many steps (0 = never)")
-    speed_ref: float = param(_WP.speed_ref, gt=0.0, units="length/step", doc="absorption halves at this speed")
-    evaporation: float = param(_WP.evaporation, ge=0.0, units="volume/area/step", doc="evaporation of held water")
+    drop_volume: float = param(1.0, gt=0.0, units="volume", doc="initial drop volume")
+    gravity: float = param(1.0, ge=0.0, units="length/step^2", doc="gravity")
+    friction: float = param(0.05, ge=0.0, le=1.0, doc="viscous damping of velocity per step")
+    adhesion: float = param(0.0, ge=0.0, doc="contact adhesion (per contact area)")
+    contact_angle: float = param(60.0, gt=0.0, le=180.0, units="deg", doc="drop contact angle")
+    max_speed: float = param(1.0, gt=0.0, le=1.0, units="cells/step", doc="speed cap")
+    stable_speed: float = param(0.02, ge=0.0, units="cells/step", doc="below: drop may stabilise")
+    max_age: int = param(0, ge=0, units="steps", doc="stabilise after this many steps (0 = never)")
+    speed_ref: float = param(0.5, gt=0.0, units="length/step", doc="absorption halves at this speed")
+    evaporation: float = param(0.002, ge=0.0, units="volume/area/step", doc="evaporation of held water")
     sediment_capacity: float | None = param(None, ge=0.0, doc="k in capacity = k V speed slope (None = unlimited)")
-    min_slope: float = param(_WP.min_slope, ge=0.0, doc="slope floor in the capacity")
-    deposition_rate: float = param(_WP.deposition_rate, ge=0.0, le=1.0, doc="share of over-capacity load dropped per step")
-    max_concentration: float = param(_WP.max_concentration, gt=0.0, le=1.0, doc="max sediment volume / water volume")
+    min_slope: float = param(0.01, ge=0.0, doc="slope floor in the capacity")
+    deposition_rate: float = param(0.3, ge=0.0, le=1.0, doc="share of over-capacity load dropped per step")
+    max_concentration: float = param(1.0, gt=0.0, le=1.0, doc="max sediment volume / water volume")
     footprint: str = param("cell", choices=("cell", "bilinear", "disc"), doc="cells a drop erodes/deposits on")
-    brush_radius: float = param(_WP.brush_radius, gt=0.5, le=8.0, units="cells", doc="radius of the 'disc' footprint")
+    brush_radius: float = param(2.5, gt=0.5, le=8.0, units="cells", doc="radius of the 'disc' footprint")
     erode_stabilised: bool = param(False, doc="stabilised drops keep eroding")
     capacity_fade: bool = param(False, doc="sediment capacity fades to 0 at max_age (gradual deposition)")
     depth_gain: float = param(1.0, gt=0.0, doc="scale of water__depth (drop volume per area)")
@@ -167,10 +167,6 @@ class WaterDrops(RuleBase):
         # per live drop: its arrays plus the footprint pair temporaries (disc: ~21 pairs)
         per = 2500 if self.footprint == "disc" else 600
         return int((self.drops + 100 * self.rain) * per)
-
-    def model(self) -> P.WaterParams:
-        names = {f.name for f in dc_fields(P.WaterParams)}
-        return P.WaterParams(**{k: v for k, v in self.param_values().items() if k in names})
 
     def validate(self) -> None:
         if self.emission == "weights" and not self.weights_field:
@@ -181,13 +177,12 @@ class WaterDrops(RuleBase):
         check_grid(g.shape, self.name)
         self._g, self._s, self._table = g, s, table
         self._d = drops_from_domain(state, self.drops_domain, g)
-        self._p = self.model()
         self._baseline = float(g["sediment__baseline"].sum())
         self._max_err = {"water": 0.0, "sediment": 0.0}
         self._emitted_before = float(s.emitted.sum())
 
     def step(self, state: State) -> bool:
-        s, p, it = self._s, self._p, state.iteration
+        s, p, it = self._s, self, state.iteration
         rng = state.rng()
         n_new = (self.drops if it == 0 else 0) + (self.rain if (self.rain_steps == 0 or it < self.rain_steps) else 0)
         if n_new:
@@ -268,187 +263,6 @@ class WeakMap(RuleBase):
         return True
 
 
-_CP = CorrosionParams()
-
-
-@dataclass(kw_only=True)
-class Corrosion(RuleBase):
-    """Corrosion CA: seeds on weak cells, downhill-tilted Gaussian contamination, attack vs defence.
-
-    Corroded cells eat the metal layer (k1 per step) and grow the oxide layer (k2, capped at
-    k3); metal gone makes a hole.  Only metal not covered by another layer (other than the
-    oxide) corrodes, so paint protects until water washes it away.
-    """
-
-    name: ClassVar[str] = "water.corrode"
-    default_iterations: ClassVar[int] = 100
-    example: ClassVar[tuple[dict, ...]] = (
-        {"rule": "water.surface", "params": {"nx": 24, "ny": 20, "layers": [
-            {"preset": "copper", "thickness": 0.2}, {"preset": "patina", "thickness": 0.0}]}},
-        {"rule": "water.weak_map"}, {"rule": "water.corrode", "iterations": 3, "params": {"seed_rate": 0.01}})
-    uses: ClassVar[dict[str, str]] = {SURF: "Grid"}
-    fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec("surface__thickness", SURF, "cell", "inout", units="length"),
-        FieldSpec("corrosion__weak", SURF, "cell", "in", units="1"),
-        FieldSpec("corrosion__state", SURF, "cell", "out", units="1"),
-        FieldSpec("corrosion__time", SURF, "cell", "out", units="steps"),
-        FieldSpec("corrosion__map", SURF, "cell", "out", units="1"),
-    )
-    grid: str = param("terrain", doc="Grid with a metal layer")
-    metal: str = param("copper", doc="name of the corrodible metal layer")
-    oxide: str = param("patina", doc="name of the oxide / patina layer it grows")
-    seed_rate: float = param(_CP.seed_rate, ge=0.0, le=1.0, doc="new seeds per step, fraction of cells")
-    max_seeds: int = param(_CP.max_seeds, ge=0, doc="maximum seeds in total")
-    age_step: int = param(_CP.age_step, ge=1, units="steps", doc="one more attack per this many steps of age")
-    a0: float = param(_CP.a0, doc="base attack")
-    a1: float = param(_CP.a1, ge=0.0, doc="attack per step of age")
-    a2: float = param(_CP.a2, ge=0.0, doc="attack per corroded helper of the attacker")
-    b0: float = param(_CP.b0, doc="base defence")
-    b1: float = param(_CP.b1, ge=0.0, doc="defence per strong neighbour of the defender")
-    strong_bonus: float = param(_CP.strong_bonus, ge=0.0, doc="defence of a strong cell")
-    noise: float = param(_CP.noise, ge=0.0, doc="uniform noise added to the attack")
-    sigma: float = param(_CP.sigma, gt=0.0, units="cells", doc="3x3 Gaussian width")
-    downhill: float = param(_CP.downhill, ge=0.0, doc="tilt of the Gaussian towards downhill")
-    k1: float = param(_CP.k1, ge=0.0, units="length/step", doc="metal eaten per step")
-    k2: float = param(_CP.k2, ge=0.0, units="length/step", doc="oxide grown per step")
-    k3: float = param(_CP.k3, ge=0.0, units="length", doc="maximum oxide thickness")
-
-    def check_chain(self, earlier: list[RuleBase]) -> None:
-        """The metal and oxide must be layers of the water.surface that made the grid."""
-        from .layers import parse_layers
-
-        made = [r for r in earlier if r.name == "water.surface" and getattr(r, "grid", None) == self.grid]
-        if made:
-            table = parse_layers(made[-1].layers)[0]
-            table.index(self.metal, "metal")
-            table.index(self.oxide, "oxide")
-
-    def setup(self, state: State) -> None:
-        g, s, table = surface_view(state, self.grid)
-        check_grid(g.shape, self.name)
-        self._mi = table.index(self.metal, "water.corrode metal")
-        self._oi = table.index(self.oxide, "water.corrode oxide")
-        if self._mi == self._oi:
-            raise InputError("water.corrode: metal and oxide must be different layers")
-        if not table[self._mi].corrodible:
-            raise InputError(f"water.corrode: layer {self.metal!r} is not corrodible (set corrodible = true)")
-        if "corrosion__state" not in g:
-            g.add_field("corrosion__state", np.zeros(g.shape, np.int8), at="cell",
-                        doc="0 sound, 1 corroded, 2 hole")
-            g.add_field("corrosion__age", np.zeros(g.shape, np.int64), at="cell", units="steps")
-            g.add_field("corrosion__time", np.full(g.shape, -1, np.int64), at="cell", units="steps",
-                        doc="iteration at which the cell corroded (-1 never)")
-            g.add_field("corrosion__seeded", np.zeros(g.shape, bool), at="cell", doc="cell was a seed")
-        self._g, self._s, self._table = g, s, table
-        self._p = CorrosionParams(**{f.name: getattr(self, f.name) for f in dc_fields(CorrosionParams)})
-        self._stats = {"new_seeds": 0, "max_attacks_per_cell": 0, "attack_limit_violations": 0}
-        self._t0 = int(max(g["corrosion__time"].max(), -1)) + 1
-
-    def step(self, state: State) -> bool:
-        g, s, L = self._g, self._s, self._s.n_layers
-        t = s.thickness.reshape(g.shape + (L,))
-        metal = t[..., self._mi].copy()
-        oxide = t[..., self._oi].copy()
-        others = [l for l in range(self._mi + 1, L) if l != self._oi]
-        covered = (t[..., others] > 0).any(axis=-1) if others else np.zeros(g.shape, bool)
-        state_f = g["corrosion__state"]
-        corroded, hole = state_f >= 1, state_f == 2
-        age = np.array(g["corrosion__age"], np.int64)
-        seeded = g["corrosion__seeded"]
-        before = corroded.copy()
-        st = corrosion_step(corroded=corroded, age=age, hole=hole, weak=g["corrosion__weak"] > 0.5,
-                            metal=metal, oxide=oxide, covered=covered, height=np.asarray(g["surface__height"]),
-                            spacing=g.spacing, p=self._p, rng=state.rng(), seeds_used=int(seeded.sum()))
-        newly = corroded & ~before
-        d_metal = metal - t[..., self._mi]
-        d_oxide = oxide - t[..., self._oi]
-        t[..., self._mi] = metal
-        t[..., self._oi] = oxide
-        s.source += ((d_metal + d_oxide) * s.cell_area).ravel()
-        new_state = np.where(hole, 2, np.where(corroded, 1, 0)).astype(np.int8)
-        g["corrosion__state"] = new_state
-        g.add_field("corrosion__map", np.where(new_state > 0, 1.0 + new_state, g["corrosion__weak"]),
-                    at="cell", units="1", doc="0 strong, 1 weak, 2 corroded, 3 hole (plate 2.2 maps)")
-        g["corrosion__age"] = age
-        tm = np.array(g["corrosion__time"])
-        tm[newly] = self._t0 + state.iteration
-        g["corrosion__time"] = tm
-        if st.new_seeds:
-            sd = np.array(seeded)
-            sd.ravel()[st.seed_cells] = True
-            g["corrosion__seeded"] = sd
-        self._stats["new_seeds"] += st.new_seeds
-        self._stats["max_attacks_per_cell"] = max(self._stats["max_attacks_per_cell"], st.max_attacks_per_cell)
-        self._stats["attack_limit_violations"] += st.max_allowed_violation
-        update_derived(g, s, self._table)
-        return bool(st.newly_corroded or np.any(corroded & ~hole))
-
-    def finish(self, state: State) -> None:
-        g = self._g
-        st = g["corrosion__state"]
-        state.report(f"step{state.step_index}.corrosion", {
-            **self._stats, "corroded_fraction": float(np.mean(st >= 1)),
-            "holes": int(np.sum(st == 2))})
-
-
-@dataclass(kw_only=True)
-class RenderLayers(RuleBase):
-    """Colour map: Phong per layer and cell, then light through the layers (thesis 2.5, App. B).
-
-    Writes surface__color (RGB in [0, 1]); optionally shows wet layers darker and the drops as
-    a water film on top.  Corrosion holes show the background.
-    """
-
-    name: ClassVar[str] = "water.render"
-    example: ClassVar[tuple[dict, ...]] = _SMALL + ({"rule": "water.render"},)
-    uses: ClassVar[dict[str, str]] = {SURF: "Grid"}
-    fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec("surface__thickness", SURF, "cell", "in", units="length"),
-        FieldSpec("{field}", SURF, "cell", "out", units="rgb"),
-    )
-    grid: str = param("terrain", doc="Grid to render")
-    field: str = param("surface__color", doc="cell field to write (e.g. stage_b__color to keep a stage)")
-    azimuth: float = param(135.0, ge=-360.0, le=360.0, units="deg", doc="light azimuth from +x")
-    elevation: float = param(50.0, gt=0.0, le=90.0, units="deg", doc="light elevation")
-    wet_darkening: float = param(0.45, ge=0.0, le=1.0, doc="how much saturation darkens a layer")
-    show_drops: bool = param(False, doc="draw the drops' water as a film on top")
-    depth_gain: float = param(1.0, gt=0.0, doc="scale of the drop water film")
-    z_scale: float = param(1.0, gt=0.0, doc="relief exaggeration for shading")
-    base_relief: float = param(1.0, ge=0.0, le=1.0, doc="share of the base relief in the shading (0 = shade a tilted plate face-on)")
-    opacity_scale: float = param(1.0, gt=0.0, doc="multiply every layer's f(o) (plate 2.3: rising opacity)")
-    background: list[float] = param([0.05, 0.05, 0.08], ge=0.0, le=1.0, doc="colour of holes")
-
-    def step(self, state: State) -> bool:
-        g, s, table = surface_view(state, self.grid)
-        t = s.thickness.reshape(g.shape + (s.n_layers,))
-        held = s.held.reshape(t.shape)
-        water = None
-        if self.show_drops and "water__depth" in g:
-            water = np.asarray(g["water__depth"]) * self.depth_gain
-        hole = (np.asarray(g["corrosion__state"]) == 2) if "corrosion__state" in g else None
-        if self.opacity_scale != 1.0:
-            from procgen.lighting import opacity_factor
-            from procgen.materials import MaterialTable
-            from dataclasses import replace
-            mats = []
-            for m in table:
-                f = opacity_factor(m.opacity) * self.opacity_scale
-                mats.append(replace(m, opacity=float(min(f / (1 + f), 0.999))))
-            table = MaterialTable(tuple(mats))
-        rgb = render_layers(np.asarray(g["surface__base"]), t, table, spacing=g.spacing,
-                            azimuth=self.azimuth, elevation=self.elevation, held=held,
-                            wet_darkening=self.wet_darkening, water_depth=water, hole=hole,
-                            background=tuple(self.background), z_scale=self.z_scale,
-                            base_relief=self.base_relief)
-        g.add_field(self.field, rgb, at="cell", units="rgb", doc="rendered colour")
-        return True
-
-    def validate(self) -> None:
-        if len(self.background) != 3:
-            raise ValueError("background must be 3 numbers")
-        check_field_name(self.field)
-
-
 @dataclass(kw_only=True)
 class Snapshot(RuleBase):
     """Copy a grid field under a new name, to keep a stage of a run for the outputs."""
@@ -477,4 +291,4 @@ class Snapshot(RuleBase):
         return True
 
 
-RULES = [MultiLayerSurface, WaterDrops, WeakMap, Corrosion, RenderLayers, Snapshot]
+RULES = [MultiLayerSurface, WaterDrops, WeakMap, Snapshot]

@@ -1,15 +1,17 @@
 """Glue between procgen State/Grid fields and the numpy model objects (no copies on the hot path).
 
-The material table lives in a small PointSet domain ``<grid>_materials`` (one point per layer,
-one ``material__<property>`` field per property), so it is saved, loaded and inspected like
-every other piece of state and needs no core support.
+The layer stack (``layers__thickness`` and the ``material__*`` table) is the layered-materials
+family's (:mod:`procgen_layers.stack`); this module adds the water maps beside it.
 """
 from __future__ import annotations
 
+from typing import Iterable
+
 import numpy as np
 
-from procgen import Grid, InputError, PointSet, State
-from procgen.materials import MaterialTable
+from procgen import FieldSpec, Grid, PointSet, State
+from procgen_layers.materials import MaterialTable
+from procgen_layers.stack import THICKNESS, load_table
 
 from .particles import Drops, Surface, material_arrays
 
@@ -18,7 +20,7 @@ CELL_MAPS = {
     "water__evaporated": ("volume", "cumulative water evaporated from this cell"),
     "water__drained": ("volume", "water of drops that left the grid from this cell"),
     "sediment__drained": ("volume", "sediment carried off the grid from this cell"),
-    "surface__solid_source": ("volume", "solid made (+) or destroyed (-) by non-water rules"),
+    "layers__source": ("volume", "solid made (+) or destroyed (-) in place, cumulative"),
     "water__path": ("visits", "moving-drop visits (the water-path trace)"),
     "sediment__baseline": ("volume", "solid volume per cell when the surface was built"),
 }
@@ -26,29 +28,25 @@ LAYER_MAPS = {
     "water__held": ("volume", "water held (absorbed) in each layer"),
     "sediment__deposit": ("length", "thickness of each layer laid down by drops"),
 }
+DROP_FIELDS = {
+    "drop__velocity": ("length/step", "horizontal velocity"),
+    "drop__volume": ("volume", "water in the drop"),
+    "drop__sediment": ("volume", "sediment carried"),
+    "drop__kind": ("", "layer index of the sediment (-1 none)"),
+    "drop__moving": ("", "false once stabilised"),
+    "drop__age": ("steps", "steps moved"),
+}
 
 
-def materials_domain(grid: str) -> str:
-    return f"{grid}_materials"
+def map_specs(domain: str, intent: str, names: Iterable[str] | None = None) -> tuple[FieldSpec, ...]:
+    """FieldSpecs of the water maps (all, or ``names``) on ``domain``: one declaration of each."""
+    maps = {**CELL_MAPS, **LAYER_MAPS}
+    return tuple(FieldSpec(n, domain, "cell", intent, units=maps[n][0], doc=maps[n][1])
+                 for n in (names or maps))
 
 
-def store_table(state: State, grid: str, table: MaterialTable) -> None:
-    pts = np.column_stack([np.arange(len(table), dtype=float), np.zeros(len(table))])
-    ps = PointSet(pts)
-    for key, arr in table.to_arrays().items():
-        ps.add_field(f"material__{key}", arr, at="point", doc=f"layer material {key}")
-    state.add_domain(materials_domain(grid), ps)
-
-
-def load_table(state: State, grid: str) -> MaterialTable:
-    g = state.get(grid, Grid)
-    name = materials_domain(grid)
-    if name not in state:
-        raise InputError(f"grid {grid!r} has no material table (domain {name!r}); build it with "
-                         "water.surface")
-    ps = state.get(name, PointSet)
-    arrays = {f.split("__", 1)[1]: ps[f] for f in ps.field_names()}
-    return MaterialTable.from_arrays(g.layers, arrays)
+def drop_specs(domain: str) -> tuple[FieldSpec, ...]:
+    return tuple(FieldSpec(n, domain, "point", "out", units=u, doc=d) for n, (u, d) in DROP_FIELDS.items())
 
 
 def _contig(g: Grid, name: str) -> np.ndarray:
@@ -61,8 +59,7 @@ def _contig(g: Grid, name: str) -> np.ndarray:
     return arr
 
 
-def ensure_water_fields(g: Grid) -> None:
-    L = len(g.layers)
+def ensure_water_fields(g: Grid, L: int) -> None:
     for name, (units, doc) in CELL_MAPS.items():
         if name not in g:
             g.add_field(name, np.zeros(g.shape), at="cell", units=units, doc=doc)
@@ -74,16 +71,16 @@ def ensure_water_fields(g: Grid) -> None:
 def surface_view(state: State, grid: str) -> tuple[Grid, Surface, MaterialTable]:
     """A Surface whose arrays are views of the grid's fields (edits write through)."""
     g = state.get(grid, Grid)
-    table = load_table(state, grid)
-    ensure_water_fields(g)
-    ncell, L = g.n_cells, len(g.layers)
+    table = load_table(g, grid)
+    ensure_water_fields(g, len(table))
+    ncell, L = g.n_cells, len(table)
     v = lambda name: _contig(g, name).reshape(ncell)                           # noqa: E731
     vl = lambda name: _contig(g, name).reshape(ncell, L)                       # noqa: E731
     s = Surface(shape=g.shape, spacing=g.spacing, base=v("surface__base"),
-                thickness=vl("surface__thickness"), held=vl("water__held"),
+                thickness=vl(THICKNESS), held=vl("water__held"),
                 deposit=vl("sediment__deposit"), emitted=v("water__emitted"),
                 evaporated=v("water__evaporated"), drained=v("water__drained"),
-                drained_sediment=v("sediment__drained"), source=v("surface__solid_source"),
+                drained_sediment=v("sediment__drained"), source=v("layers__source"),
                 path=v("water__path"), **material_arrays(table))
     return g, s, table
 
@@ -92,7 +89,7 @@ def update_derived(g: Grid, s: Surface, table: MaterialTable) -> None:
     """Refresh total height, per-layer top surfaces and exposed-layer saturation."""
     t = s.thickness.reshape(g.shape + (s.n_layers,))
     tops = s.base.reshape(g.shape)[..., None] + np.cumsum(t, axis=-1)
-    g.add_field("surface__layer_top", tops, at="cell", units="length",
+    g.add_field("layers__top", tops, at="cell", units="length",
                 doc="top surface of each layer (base + cumulative thickness)")
     g.add_field("surface__height", tops[..., -1].copy(), at="cell", units="length",
                 doc="top surface height")
@@ -120,11 +117,8 @@ def drops_from_domain(state: State, name: str, g: Grid) -> Drops:
 def drops_to_domain(state: State, name: str, g: Grid, d: Drops) -> None:
     pts = np.asarray(g.origin) + d.pos * g.spacing
     ps = PointSet(pts.reshape(-1, 2), bounds=g.extent)
-    ps.add_field("drop__velocity", d.vel.reshape(-1, 2), at="point", units="length/step",
-                 doc="horizontal velocity")
-    ps.add_field("drop__volume", d.volume, at="point", units="volume", doc="water in the drop")
-    ps.add_field("drop__sediment", d.sediment, at="point", units="volume", doc="sediment carried")
-    ps.add_field("drop__kind", d.kind, at="point", doc="layer index of the sediment (-1 none)")
-    ps.add_field("drop__moving", d.moving, at="point", doc="false once stabilised")
-    ps.add_field("drop__age", d.age, at="point", units="steps", doc="steps moved")
+    values = {"drop__velocity": d.vel.reshape(-1, 2), "drop__volume": d.volume, "drop__sediment": d.sediment,
+              "drop__kind": d.kind, "drop__moving": d.moving, "drop__age": d.age}
+    for field, (units, doc) in DROP_FIELDS.items():
+        ps.add_field(field, values[field], at="point", units=units, doc=doc)
     state.add_domain(name, ps)

@@ -1,9 +1,9 @@
-"""Material table: what each surface layer is made of (appearance, liquid relations, behaviour).
+"""Material table: what each layer of a stack is made of (appearance, liquid relations, behaviour).
 
 The thesis (3DSCA, ch. 2 and App. A) gives every layer a material record with three parts:
 appearance (colour, Phong coefficients, opacity), liquid relations (absorption rate, capacity,
 erosion) and behaviour (weakness threshold, corrodible, sedimentable).  Rules on grids and on
-meshes share this one table, so it is generic: properties come out as per-layer arrays
+meshes share this one table (it belongs to the layers family, not to the core), so it is generic: properties come out as per-layer arrays
 (``table.array("opacity")``) that broadcast against per-element layer stacks.
 
 Recipes give a table as a list of dicts (or bare preset names)::
@@ -21,13 +21,11 @@ from typing import Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from .errors import InputError
+from procgen.errors import InputError
 
-__all__ = ["Material", "MaterialTable", "PRESETS", "preset", "parse_materials"]
+__all__ = ["Material", "MaterialTable", "PRESETS", "preset", "parse_materials", "split_layer_specs"]
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
-#: opacity is clamped below this for the f(o) = o/(1-o) law (digest section 17 #7)
-MAX_OPACITY = 0.999
 
 
 @dataclass(frozen=True)
@@ -285,8 +283,6 @@ def split_layer_specs(specs: Any, geometry_keys: Sequence[str],
     Both layered plugins (2.5-D grids and mesh cells) read the same layer syntax through this;
     each then checks the geometry keys it knows.
     """
-    import difflib
-
     if isinstance(specs, (str, bytes)) or not isinstance(specs, Sequence) or len(specs) == 0:
         raise InputError(f"{where}: give a non-empty list of layers (preset names or tables)")
     mats, geos = [], []

@@ -4,8 +4,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from procgen.errors import InputError
-from procgen.lighting import (heightfield_normals, layer_weights, light_direction, opacity_factor,
-                              phong, through_layers, through_layers_loop)
+from procgen.lighting import heightfield_normals, light_direction, phong
+from procgen_layers.light import layer_weights, opacity_factor, through_layers, through_layers_loop
 
 
 def _direct_sum(lc, t, o):
@@ -81,3 +81,31 @@ def test_phong_matches_hand_computation_and_normals():
     h = np.tile(np.arange(5.0), (4, 1))
     nn = heightfield_normals(h)
     assert np.allclose(nn, [-np.sqrt(0.5), 0, np.sqrt(0.5)])
+
+
+def test_shade_rule_on_a_flat_grid_is_phong_of_the_layer_and_holes_show_background(host):
+    from procgen.recipes import check_recipe
+    from procgen.runner import run
+    from procgen_layers.materials import PRESETS
+
+    steps = [{"rule": "water.surface", "params": {"nx": 8, "ny": 6, "layers": [{"preset": "patina", "thickness": 1.0}]}},
+             {"rule": "layers.shade", "params": {"cells": "terrain", "light_azimuth": 30.0, "light_elevation": 60.0,
+                                                 "background": [0.1, 0.2, 0.3]}}]
+    g = run(check_recipe({"steps": steps}, host), host, seed=1, progress=False).state.get("terrain")
+    m = PRESETS["patina"]
+    expect = phong(np.array([0.0, 0.0, 1.0]), m.color, light=light_direction(30, 60), ambient=m.ambient,
+                   diffuse=m.diffuse, specular=m.specular, exponent=m.exponent)
+    np.testing.assert_allclose(g["surface__color"], np.broadcast_to(np.clip(expect, 0, 1), (6, 8, 3)), atol=1e-12)
+    alive = np.ones((6, 8), bool)
+    alive[2, 3] = False
+    g.add_field("cell__alive", alive, at="cell")
+    from procgen_layers.rules import Shade
+    from procgen.state import State
+
+    st = State(seed=1)
+    st.add_domain("terrain", g)
+    Shade(cells="terrain", background=[0.1, 0.2, 0.3]).step(st)
+    assert np.allclose(g["surface__color"][2, 3], [0.1, 0.2, 0.3])
+    assert np.allclose(g["surface__color"][0, 0], np.clip(phong(np.array([0.0, 0.0, 1.0]), m.color,
+                       light=light_direction(135, 50), ambient=m.ambient, diffuse=m.diffuse,
+                       specular=m.specular, exponent=m.exponent), 0, 1))

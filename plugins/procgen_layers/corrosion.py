@@ -1,8 +1,8 @@
 """Corrosion / patina as a strategic attack-defence CA (thesis ch. 2.4 and 4.2, Appendix A).
 
-One kernel for both plugins: the 2.5-D surface runs it on the grid graph of its raster (with an
-extra downhill tilt per neighbour entry and covered metal blocked), the mesh-surface plugin on
-its cross-edge cell graph.
+One kernel on every cell domain (the ``layers.corrode`` rule): a raster's 8-neighbour graph
+(2.5-D surfaces, with an optional downhill tilt per neighbour entry) or the cross-edge graph of
+a mesh's surface cells; covered layers are blocked.
 
 States: NORMAL (0), CORRODED (1), HOLE (2, the thesis's NO_MORE_CELL).  Per synchronous step:
 
@@ -22,12 +22,14 @@ until the k3 cap (thesis: "A proportional to oxide thickness").
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import InputError
+from procgen.ca.graph import MOORE, CellGraph, weighted_top_k
 
-from .graph import MOORE, CellGraph, weighted_top_k
+if TYPE_CHECKING:
+    from .rules import Corrode
 
 NORMAL, CORRODED, HOLE = 0, 1, 2
 
@@ -40,42 +42,10 @@ def gaussian_matrix(sigma: float) -> np.ndarray:
     return w
 
 
-@dataclass(frozen=True)
-class CorrosionParams:
-    """Numbers of the attack/defence model (defaults are ours: the thesis gives none)."""
-
-    k1: float = 0.0005         # consumable (metal) lost per step by a corroded cell
-    k2: float = 0.02          # product (oxide) gained per step
-    k3: float = 1.0           # product cap
-    seed_rate: float = 1e-6   # expected new seeds per cell per step
-    max_seeds: int = 60
-    max_attacks: int = 7
-    age_step: float = 12.0    # steps of age per extra attack (f1)
-    a0: float = 1.0
-    a1: float = 0.02          # attack per step of age
-    a2: float = 0.15          # attack per corroded helper of the attacker
-    b0: float = 1.9
-    b1: float = 0.35          # defence per strong helper of the defender
-    strong_bonus: float = 1.5
-    noise: float = 1.0        # attack += noise * U(0, 1)
-    gaussian: tuple[tuple[float, ...], ...] = field(
-        default_factory=lambda: tuple(map(tuple, gaussian_matrix(1.0))))
-    seeding: str = "binomial"  # new seeds per step: Binomial(n, rate) or "fixed" floor(rate * n)
-
-    def check(self) -> None:
-        g = np.asarray(self.gaussian, dtype=float)
-        if g.shape != (3, 3) or np.any(~np.isfinite(g)) or np.any(g < 0) or g.sum() <= g[1, 1]:
-            raise InputError("corrosion: gaussian must be a 3x3 matrix of non-negative weights "
-                             "with some weight off the centre")
-        if not 1 <= self.max_attacks <= 7:
-            raise InputError(f"corrosion: max_attacks must be in 1..7 (never 8), got {self.max_attacks}")
-        if self.seeding not in ("binomial", "fixed"):
-            raise InputError(f"corrosion: seeding must be 'binomial' or 'fixed', got {self.seeding!r}")
-
-    def direction_weights(self) -> np.ndarray:
-        """Weight of each Moore slot (di, dj), read from the 3x3 matrix [dj + 1, di + 1]."""
-        g = np.asarray(self.gaussian, dtype=float)
-        return g[MOORE[:, 1] + 1, MOORE[:, 0] + 1]
+def direction_weights(gaussian: np.ndarray) -> np.ndarray:
+    """Weight of each Moore slot (di, dj), read from the 3x3 matrix [dj + 1, di + 1]."""
+    g = np.asarray(gaussian, dtype=float)
+    return g[MOORE[:, 1] + 1, MOORE[:, 0] + 1]
 
 
 @dataclass
@@ -106,9 +76,13 @@ class StepStats:
     max_allowed_violation: int = 0   # cells that attacked more than min(n_VC, max_attacks): must be 0
 
 
-def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams, rng: np.random.Generator,
-                   *, edge_logw: np.ndarray | None = None, blocked: np.ndarray | None = None) -> StepStats:
+def corrosion_step(graph: CellGraph, st: CorrosionState, prm: "Corrode", rng: np.random.Generator,
+                   *, weights: np.ndarray, edge_logw: np.ndarray | None = None,
+                   blocked: np.ndarray | None = None) -> StepStats:
     """One synchronous step of every cell; ``st`` is updated in place.
+
+    ``prm`` is the ``layers.corrode`` rule: its parameters are the model's numbers (declared
+    once, there).  ``weights``: the Gaussian weight of each Moore slot (:func:`direction_weights`).
 
     ``edge_logw``: extra log-weight per CSR entry added to the Gaussian direction weight (the
     2.5-D surface tilts attacks downhill). ``blocked``: normal cells that can be neither attacked
@@ -146,7 +120,7 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm: CorrosionParams, r
         n_vc = np.bincount(rows, weights=valid, minlength=len(front)).astype(np.int64)
         f1 = np.clip(1 + (st.age[front] // prm.age_step).astype(np.int64), 1, prm.max_attacks)
         n_a = np.minimum(f1, n_vc)
-        w = prm.direction_weights()[graph.direction[e]]
+        w = weights[graph.direction[e]]
         if edge_logw is not None:
             w = w * np.exp(np.asarray(edge_logw, dtype=float)[e])
         chosen = weighted_top_k(rows, np.where(valid, w, 0.0), n_a, rng)
