@@ -103,7 +103,7 @@ def test_shipped_png_is_eroded_and_written_back_as_a_heightmap(host, tmp_path):
     src = json.loads((recipe.base_dir / "mesa-png16.json").read_text())
     base = g["surface__base"]
     assert src["z_min"] - 1e-9 <= base.min() and base.max() <= src["z_max"] + 1e-9
-    eroded = g["surface__height"] - base - g["surface__thickness"].sum(axis=-1)
+    eroded = g["surface__height"] - base - g["layers__thickness"].sum(axis=-1)
     assert np.abs(eroded).max() < 1e-9                       # height = base + layers, always
     assert np.abs(g["sediment__deposit"]).sum() > 0
 

@@ -8,9 +8,12 @@ from procgen.gallery import load_gallery
 from procgen.recipes import list_recipes
 
 FAMILY = {"snaxel": "clouds", "water": "terrain", "surface": "meshes"}
-# the cross-family chains the core ships, and the family whose rules each one needs
+# the cross-family recipes the core ships (chains, users' data), and the families whose rules
+# each one needs
 CHAINS = {"chains/cloud-voronoi": {"snaxel", "surface"}, "chains/eroded-patina": {"water", "surface"},
-          "chains/voronoi-grains-corrosion": {"surface"}}
+          "chains/voronoi-grains-corrosion": {"surface"}, "data/leaf-logo-patina": {"surface"},
+          "data/terrain-from-png": {"water"}, "data/dem-geotiff": {"water"},
+          "data/painted-corrosion": {"water"}}
 
 
 @pytest.mark.parametrize("plugin", sorted(FAMILY))
@@ -25,14 +28,14 @@ def test_disabling_a_plugin_removes_its_recipes_and_gallery_entries(plugin, monk
     family = FAMILY[plugin]
     assert any(n.startswith(f"{family}/") for n in all_recipes)
     assert not any(n.startswith(f"{family}/") for n in recipes)
-    # every other family keeps all of its recipes (the core ships demo/ and chains/)
+    # every other family keeps all of its recipes (the core ships demo/, chains/ and data/)
     assert {n for n in all_recipes if not n.startswith(f"{family}/")} == set(recipes)
     entries = {e.slug: e for e in load_gallery(host)}
     dropped = {s for s, e in all_entries.items() if e.recipe.startswith(f"{family}/")
                or plugin in CHAINS.get(e.recipe, ())}
     assert dropped and set(entries) == set(all_entries) - dropped
     notes = capsys.readouterr().err.strip().splitlines()
-    chains = sorted(all_entries[s].recipe for s in dropped if all_entries[s].recipe.startswith("chains/"))
+    chains = sorted(all_entries[s].recipe for s in dropped if all_entries[s].recipe in CHAINS)
     assert len(notes) == len(chains)          # one line per left-out chain entry, none for the family
     for note, recipe in zip(sorted(notes), chains):
         assert note.startswith("gallery: left out") and recipe in note and f"{plugin}." in note

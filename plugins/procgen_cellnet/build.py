@@ -80,6 +80,7 @@ class CellSeeding(RuleBase):
         FieldSpec("cell__object", domain="{cells}", at="cell", intent="out", doc="source object"),
         FieldSpec("cell__material", domain="{cells}", at="cell", intent="out", doc="material id"),
         FieldSpec("cell__region", domain="{cells}", at="cell", intent="out", doc="plane region"),
+        FieldSpec("cell__alive", domain="{cells}", at="cell", intent="out", doc="False on transparent cells"),
     )
     example: ClassVar[tuple[dict, ...]] = (
         {"rule": "mesh.primitive", "params": {"shape": "cube"}},

@@ -20,11 +20,11 @@ from .cellrule import EXAMPLE_NET, CellRule, adjacency, changed
 from .network import CellNetwork
 from .states import LABEL_FIELD, STATE_NAMES, put_states, selection, states
 
-COLOR, COLORED = "cell__color", "cell__colored"
+COLOR, COLORED = "surface__color", "cell__colored"
 
 
 def colours(net) -> tuple[np.ndarray, np.ndarray]:
-    """(cell__color, cell__colored), uncoloured black when absent."""
+    """(surface__color, cell__colored), uncoloured black when absent."""
     if COLOR not in net:
         return np.zeros((net.n_cells, 3), np.float32), np.zeros(net.n_cells, bool)
     return np.asarray(net[COLOR], np.float32), np.asarray(net[COLORED], bool)
@@ -67,7 +67,7 @@ class RandomColorSeeds(CellRule):
 
     name: ClassVar[str] = "cellnet.seed_colors"
     fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", doc="RGB colour"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", units="rgb", doc="RGB colour"),
         FieldSpec(COLORED, domain="{cells}", at="cell", intent="out", doc="colour is not null"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
@@ -106,7 +106,7 @@ class LabelColors(CellRule):
     name: ClassVar[str] = "cellnet.label_colors"
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(LABEL_FIELD, domain="{cells}", at="cell", intent="in", doc="region label"),
-        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", doc="RGB colour"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", units="rgb", doc="RGB colour"),
         FieldSpec(COLORED, domain="{cells}", at="cell", intent="out", doc="colour is not null"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
@@ -147,7 +147,7 @@ class ColorFromField(CellRule):
     name: ClassVar[str] = "cellnet.color_by"
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("{field}", domain="{cells}", at="cell", intent="in", doc="bool or integer state"),
-        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", doc="RGB colour"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", units="rgb", doc="RGB colour"),
         FieldSpec(COLORED, domain="{cells}", at="cell", intent="out", doc="colour is not null"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
@@ -219,7 +219,7 @@ class ColorSpreading(CellRule):
     name: ClassVar[str] = "cellnet.diffuse"
     default_iterations: ClassVar[int] = 20
     fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec(COLOR, domain="{cells}", at="cell", intent="inout", doc="RGB colour"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="inout", units="rgb", doc="RGB colour"),
         FieldSpec(COLORED, domain="{cells}", at="cell", intent="inout", doc="colour is not null"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (

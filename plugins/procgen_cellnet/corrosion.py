@@ -51,6 +51,7 @@ class CorrosionCountdown(CellRule):
         FieldSpec(POTENTIAL, domain="{cells}", at="cell", intent="out",
                   doc="material potential: NaN never corroded, > 0 corroding, <= 0 consumed"),
         FieldSpec("cell__state", domain="{cells}", at="cell", intent="out", doc="general state"),
+        FieldSpec("cell__alive", domain="{cells}", at="cell", intent="out", doc="False once consumed (a hole)"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
         {"rule": "ca.voronoi", "params": {"seeds": 4}, "iterations": 30},

@@ -45,8 +45,9 @@ class CrackDerivative(CellRule):
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(LABEL_FIELD, domain="{cells}", at="cell", intent="in", doc="region label"),
         FieldSpec(CRACK, domain="{cells}", at="cell", intent="out", doc="crack cells"),
-        FieldSpec("cell__color", domain="{cells}", at="cell", intent="out", doc="RGB colour"),
+        FieldSpec("surface__color", domain="{cells}", at="cell", intent="out", units="rgb", doc="RGB colour"),
         FieldSpec("cell__state", domain="{cells}", at="cell", intent="out", doc="general state"),
+        FieldSpec("cell__colored", domain="{cells}", at="cell", intent="out", doc="colour is not null"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
         {"rule": "ca.voronoi", "params": {"seeds": 4}, "iterations": 30},

@@ -54,7 +54,7 @@ def cell_rgb(net: CellNetwork, color_by: str, p_sat: float = 0.5,
     a = np.asarray(net[color_by])
     if a.ndim == 2 and a.shape[1] == 3:
         rgb = np.clip(a.astype(float), 0, 1)
-        if color_by == "cell__color" and "cell__colored" in net:
+        if color_by == "surface__color" and "cell__colored" in net:
             rgb[~np.asarray(net["cell__colored"], bool)] = off_color
         return rgb
     if a.ndim != 1:
@@ -95,21 +95,21 @@ def _splats(domain: Any, fmt: str, color_by: str, splat: float, p_sat: float) ->
 
 
 def cellnet_obj(domain: Any, *, stem: str, provenance: dict | None = None,
-                color_by: str = "cell__color", splat: float = 0.8, p_sat: float = 0.5) -> dict[str, bytes]:
+                color_by: str = "surface__color", splat: float = 0.8, p_sat: float = 0.5) -> dict[str, bytes]:
     """OBJ with one coloured hexagon splat per cell (transparent cells left out)."""
     mesh = _splats(domain, "cellnet_obj", color_by, splat, p_sat)
     return obj_export(mesh, stem=stem, provenance=provenance, color_field="vertex__color")
 
 
 def cellnet_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                color_by: str = "cell__color", splat: float = 0.8, p_sat: float = 0.5) -> bytes:
+                color_by: str = "surface__color", splat: float = 0.8, p_sat: float = 0.5) -> bytes:
     """Binary glTF of the coloured splats."""
     mesh = _splats(domain, "cellnet_glb", color_by, splat, p_sat)
     return glb_export(mesh, stem=stem, provenance=provenance, color_field="vertex__color")
 
 
 def cellnet_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                color_by: str = "cell__color", splat: float = 0.8, p_sat: float = 0.5,
+                color_by: str = "surface__color", splat: float = 0.8, p_sat: float = 0.5,
                 width: int = 640, height: int = 480, azimuth: float = 35.0, elevation: float = 25.0,
                 up: str = "z", lit: bool = True) -> bytes:
     """The splats seen from a fixed camera (software renderer) as PNG."""
@@ -123,7 +123,7 @@ def cellnet_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
 
 
 def cellnet_points(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                   color_by: str = "cell__color", p_sat: float = 0.5) -> bytes:
+                   color_by: str = "surface__color", p_sat: float = 0.5) -> bytes:
     """Point-cloud OBJ: ``v x y z r g b`` per present cell."""
     net = _check(domain, "cellnet_points")
     keep = states(net) != TRANSPARENT
@@ -134,7 +134,7 @@ def cellnet_points(domain: Any, *, stem: str = "", provenance: dict | None = Non
 
 
 def cellnet_svg(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                color_by: str = "cell__color", p_sat: float = 0.5, radius: float = 0.5,
+                color_by: str = "surface__color", p_sat: float = 0.5, radius: float = 0.5,
                 links: bool = False, link_color: str = "#555555", ring: bool = False,
                 width: int = 800, background: str = "#ffffff") -> bytes:
     """Planar runs as SVG: one disc per present cell (radius in cs), optional link lines and a

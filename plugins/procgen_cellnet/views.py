@@ -180,7 +180,7 @@ class CellRaster(RuleBase):
 
     cells: str = param("cells", doc="planar CellNetwork")
     grid: str = param("raster", doc="name of the Grid to create")
-    names: list[str] = param(["cell__color"], doc="cell fields to sample")
+    names: list[str] = param(["surface__color"], doc="cell fields to sample")
     resolution: int = param(512, ge=8, le=8192, doc="pixels along the longer side")
     fill: float = param(0.0, doc="value of pixels with no cell (away from the network or holes)")
 

@@ -6,7 +6,7 @@ source ("Vc <- Vc + V_kc % p"); the reading kept here: with humidity h = min(p /
 m the mean pigment of the wet, pigmented sending neighbours, Vc <- Vc + mix h (m - Vc).  A dry
 cell (p = 0) never changes colour: the pigment has settled.  A layer (section 5.2: three in
 Figure 13) is a brush that wets a disc or a set of regions with water and pigment, then flows
-until dry; the layer's settled pigment glazes the cell colour multiplicatively (``cell__color``,
+until dry; the layer's settled pigment glazes the cell colour multiplicatively (``surface__color``,
 white paper where a cell had none).
 Figure 13(a)'s humidity map: blue where p >= p_sat, green shading for p / p_sat.
 """
@@ -55,7 +55,8 @@ class WatercolorBrush(CellRule):
         FieldSpec(WATER, domain="{cells}", at="cell", intent="out", doc="water amount p"),
         FieldSpec(PIGMENT, domain="{cells}", at="cell", intent="out", doc="pigment in the water"),
         FieldSpec(LAYER, domain="{cells}", at="cell", intent="out", doc="last layer that wetted"),
-        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", doc="RGB colour (the paper)"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="out", units="rgb", doc="RGB colour (the paper)"),
+        FieldSpec("cell__colored", domain="{cells}", at="cell", intent="out", doc="colour is not null"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
         {"rule": "cellnet.paint", "params": {"center": [6.0, 6.0, 0.0], "radius": 3.0}},)
@@ -105,7 +106,7 @@ class WatercolorFlow(CellRule):
     """Watercolour flow: water diffuses and evaporates; pigment moves with it and settles when dry.
 
     Run ``until = "stable"``: when every cell of the layer is dry, the layer's pigment glazes
-    ``cell__color`` (multiplied in) and the pigment map is cleared for the next layer.
+    ``surface__color`` (multiplied in) and the pigment map is cleared for the next layer.
     """
 
     name: ClassVar[str] = "cellnet.watercolor"
@@ -113,8 +114,8 @@ class WatercolorFlow(CellRule):
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(WATER, domain="{cells}", at="cell", intent="inout", doc="water amount p"),
         FieldSpec(PIGMENT, domain="{cells}", at="cell", intent="inout", doc="pigment carried"),
-        FieldSpec(LAYER, domain="{cells}", at="cell", intent="in", doc="last layer that wetted"),
-        FieldSpec(COLOR, domain="{cells}", at="cell", intent="inout", doc="RGB colour (the paper)"),
+        FieldSpec(LAYER, domain="{cells}", at="cell", intent="inout", doc="last layer that wetted"),
+        FieldSpec(COLOR, domain="{cells}", at="cell", intent="inout", units="rgb", doc="RGB colour (the paper)"),
     )
     example: ClassVar[tuple[dict, ...]] = EXAMPLE_NET + (
         {"rule": "cellnet.paint", "params": {"center": [6.0, 6.0, 0.0], "radius": 3.0}},
