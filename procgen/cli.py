@@ -236,7 +236,10 @@ def describe_rule(cls: type) -> str:
         for s in specs:
             lines.append(f"    {s.intent:<5} {s.name} on {s.domain}.{s.at} [{s.units}] {s.doc}")
     if cls.uses:
-        lines.append("  uses:    " + ", ".join(f"{k} ({v})" for k, v in cls.uses.items()))
+        from .ca.cells import CELL_DOMAIN, cell_domain_kinds
+        lines.append("  uses:    " + ", ".join(
+            f"{k} (any cell domain: {', '.join(cell_domain_kinds())})" if v == CELL_DOMAIN else f"{k} ({v})"
+            for k, v in cls.uses.items()))
     if cls.creates:
         lines.append("  creates: " + ", ".join(f"{k} ({v})" for k, v in cls.creates.items()))
     lines.append(f"  default iterations: {cls.default_iterations}")

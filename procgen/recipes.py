@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any
 
-from .domains import DOMAIN_KINDS, is_kind
+from .ca.cells import kind_accepts, kind_text
+from .domains import DOMAIN_KINDS
 from .errors import PluginError, ProcgenError, RecipeError
 from .params import coerce, did_you_mean
 from .rules import RuleBase
@@ -196,7 +197,7 @@ def _kind_fits(made: str, wanted: str) -> bool:
     if made == wanted:
         return True
     cls = DOMAIN_KINDS.get(made)
-    return cls is not None and is_kind(cls, wanted)
+    return cls is not None and kind_accepts(cls, wanted)
 
 
 def _check_exporter_options(fmt: str, options: dict[str, Any], host: "PluginHost", where: str) -> None:
@@ -293,10 +294,10 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
         # data flow: what this rule needs must exist already
         for dname, kind in rule.domains_used().items():
             if dname not in flow.domains:
-                raise RecipeError(f"{where}: needs a {kind} domain {dname!r} that no earlier step creates"
+                raise RecipeError(f"{where}: needs a {kind_text(kind, ' domain')} {dname!r} that no earlier step creates"
                                   f" (domains so far: {', '.join(flow.domains) or 'none'})")
             if not _kind_fits(flow.domains[dname], kind):
-                raise RecipeError(f"{where}: needs domain {dname!r} to be a {kind}, "
+                raise RecipeError(f"{where}: needs domain {dname!r} to be a {kind_text(kind)}, "
                                   f"but an earlier step made it a {flow.domains[dname]}")
         try:
             rule.check_chain([s.rule for s in steps])

@@ -10,7 +10,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from .domains import DOMAIN_KINDS, Domain, is_kind
+from .ca.cells import kind_accepts, kind_text
+from .domains import DOMAIN_KINDS, Domain
 from .errors import InputError
 
 FORMAT_VERSION = 1
@@ -65,8 +66,8 @@ class State:
             raise InputError(f"no domain {name!r} in the state (domains: {have})")
         if kind is not None:
             kname = kind if isinstance(kind, str) else kind.kind
-            if not is_kind(type(dom), kname):
-                raise InputError(f"domain {name!r} is a {dom.kind}, expected a {kname}")
+            if not kind_accepts(type(dom), kname):
+                raise InputError(f"domain {name!r} is a {dom.kind}, expected a {kind_text(kname)}")
         return dom  # type: ignore[return-value]
 
     def __contains__(self, name: object) -> bool:

@@ -53,7 +53,7 @@ def test_derived_topology_matches_trimesh():
     theirs = {tuple(sorted(p)) for p in tm.face_adjacency.tolist()}
     assert ours == theirs
     np.testing.assert_allclose(m.face_areas, tm.area_faces, rtol=1e-9)
-    indptr, nbrs = m.vertex_neighbors
+    indptr, nbrs = m.vertex_neighbors.indptr, m.vertex_neighbors.indices
     for v in (0, 17, 1000):
         assert set(nbrs[indptr[v]:indptr[v + 1]]) == set(tm.vertex_neighbors[v])
     # every face edge id points at the right vertex pair

@@ -12,7 +12,8 @@ from scipy.spatial import cKDTree
 
 from procgen_surface.domain import SurfaceCells
 from procgen.ca.graph import grid_graph, weighted_top_k, pick_one_per_row
-from procgen_surface.voronoi import P_DIAGONAL, VoronoiGrowth, place_seeds
+from procgen.ca.lifelike import life_step, parse_rule
+from procgen.ca.propagation import P_DIAGONAL, VoronoiGrowth, place_seeds
 
 
 def grow_one(n: int, p: float, r: int, seed: int = 0) -> np.ndarray:
@@ -107,13 +108,12 @@ def test_life_rule_ports_unchanged_from_an_image_grid():
 
 
 def _life_357_table(graph, alive0, steps):
-    """Seed-003 'table' reading of 25/357: born with 3, 5 or 7 live neighbours, survive with 2, 3, 5, 7."""
+    """Seed-003 'table' reading of 25/357 (ca.life's kernel): the cells ever alive."""
+    lut = parse_rule("25/357", "table").lut()
     alive = alive0.copy()
     ever = alive.copy()
     for _ in range(steps):
-        n = graph.count(alive)
-        born = np.isin(n, (3, 5, 7))
-        alive = np.where(alive, born | np.isin(n, (2,)), born)
+        alive = life_step(graph, alive, lut)
         ever |= alive
     return ever
 

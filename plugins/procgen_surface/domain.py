@@ -100,6 +100,10 @@ class SurfaceCells(Domain):
         """The cross-edge cell graph (the cell-domain protocol of :mod:`procgen.ca.cells`)."""
         return self.graph.neighbourhood(neighbourhood)
 
+    def cell_centres(self) -> np.ndarray:
+        """(n, 3) cell centres, for the cell-domain protocol (seed points, nearest cells)."""
+        return self.center3d
+
     @cached_property
     def layout(self) -> CellLayout:
         frames = FaceFrames(self.origin, self.ex, self.ey, self.corners2d, self.valid)

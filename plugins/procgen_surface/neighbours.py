@@ -10,7 +10,8 @@ Two cross-edge schemes:
   the other triangle whose centre projects nearest on the edge (projections clamped to the
   segment); pairs are taken in both directions, and the partner becomes one extra neighbour.
 
-The result is one flat CSR graph (indptr, indices) with a Moore direction code 0..7 per entry.
+The result is the core's :class:`procgen.ca.graph.CellGraph`: one flat CSR graph with a Moore
+direction code 0..7 and a cross-edge flag per entry.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from procgen.errors import InputError
 
 from .geometry import CellLayout, edge_half_planes
 
-from procgen.ca.graph import MOORE  # the shared Moore convention
+from procgen.ca.graph import MOORE, CellGraph  # the shared Moore convention and graph
 
 SIDE_SLOTS = np.array([1, 3, 4, 6])
 DIAGONAL_SLOTS = np.array([0, 2, 5, 7])
@@ -42,23 +43,6 @@ class EdgeTopology:
 def edge_topology(faces: np.ndarray, valid: np.ndarray | None = None) -> EdgeTopology:
     """Edge table (the core's); faces with ``valid == False`` (degenerate) do not link anything."""
     return EdgeTopology(*edge_table(faces, valid))
-
-
-@dataclass(frozen=True)
-class NeighbourGraph:
-    """CSR neighbour lists with a Moore direction code per entry."""
-
-    indptr: np.ndarray   # (n + 1,)
-    indices: np.ndarray  # (nnz,)
-    direction: np.ndarray  # (nnz,) Moore slot 0..7 the neighbour sits in
-    cross: np.ndarray    # (nnz,) True for links across a triangle edge
-
-    @property
-    def n_cells(self) -> int:
-        return len(self.indptr) - 1
-
-    def rows(self) -> np.ndarray:
-        return np.repeat(np.arange(self.n_cells), np.diff(self.indptr))
 
 
 def _other_face(topo: EdgeTopology, face: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -241,7 +225,7 @@ def _direction_code(vec: np.ndarray) -> np.ndarray:
 
 
 def build_neighbours(layout: CellLayout, vertices: np.ndarray, faces: np.ndarray,
-                     cross: str = "unfold") -> tuple[NeighbourGraph, EdgeTopology]:
+                     cross: str = "unfold") -> tuple[CellGraph, EdgeTopology]:
     """The CSR neighbour graph for ``cross`` in {'unfold', 'pairs', 'none'}."""
     if cross not in ("unfold", "pairs", "none"):
         raise InputError(f"neighbours must be 'unfold', 'pairs' or 'none', got {cross!r}")
@@ -265,7 +249,7 @@ def build_neighbours(layout: CellLayout, vertices: np.ndarray, faces: np.ndarray
     order = np.lexsort((code, rows))
     rows, cols, code, xflag = rows[order], cols[order], code[order], xflag[order]
     indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]).astype(np.int64)
-    return NeighbourGraph(indptr, cols.astype(np.int64), code.astype(np.int8), xflag), topo
+    return CellGraph(indptr, cols.astype(np.int64), code.astype(np.int8), xflag), topo
 
 
 def orientation_errors(layout: CellLayout, faces: np.ndarray, topo: EdgeTopology) -> np.ndarray:

@@ -11,9 +11,9 @@ from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domai
 @hookimpl
 def procgen_register_rules():
     from .rules import (BuildCells, CupPrimitive, LatticePrimitive, RevolvePrimitive, ShadeCells,
-                        SurfaceCorrosion, SurfaceLayers, SurfaceVoronoi)
+                        SurfaceCorrosion, SurfaceLayers)
     return [CupPrimitive, RevolvePrimitive, LatticePrimitive, BuildCells, SurfaceLayers,
-            SurfaceVoronoi, SurfaceCorrosion, ShadeCells]
+            SurfaceCorrosion, ShadeCells]
 
 
 @hookimpl

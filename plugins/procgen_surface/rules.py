@@ -1,4 +1,8 @@
-"""procgen rules of the 3DSCA family: primitives, cells, layers, Voronoi, corrosion, shading."""
+"""procgen rules of the 3DSCA family: primitives, cells, layers, corrosion, shading.
+
+Voronoi propagation is the core's generic ``ca.voronoi`` (procgen.ca.propagation), which runs
+on these cells as on any cell domain.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -12,11 +16,11 @@ from procgen.lighting import light_direction
 from procgen.materials import MaterialTable, split_layer_specs
 
 from procgen.ca import corrosion as cz
+from procgen.ca.coverage import CoverageLog
 from .domain import SurfaceCells
 from .layers import layer_stack
 from .primitives import cup, lattice
 from .shading import label_colors, shade_cells
-from .voronoi import P_DIAGONAL, VoronoiGrowth, place_seeds
 
 
 # -- primitives ------------------------------------------------------------------------------
@@ -256,95 +260,6 @@ class SurfaceLayers(RuleBase):
                      doc="thickness per layer, bottom first: " + ", ".join(table.names))
         sc.set_materials(table)
         return True
-
-
-# -- coverage curves -------------------------------------------------------------------------
-
-class CoverageLog:
-    """Per-step coverage history kept as a Polylines domain: line 0 = cumulative % of cells
-    changed, line 1 = % of cells changed in that step (the thesis's Figures 4.4 and 4.9)."""
-
-    def __init__(self) -> None:
-        self.cumulative: list[float] = [0.0]
-        self.per_step: list[float] = [0.0]
-
-    def add(self, cumulative: float, changed: float) -> None:
-        self.cumulative.append(100.0 * cumulative)
-        self.per_step.append(100.0 * changed)
-
-    def domain(self) -> Polylines:
-        t = np.arange(len(self.cumulative), dtype=float)
-        return Polylines.from_list([np.column_stack([t, self.cumulative]),
-                                    np.column_stack([t, self.per_step])], closed=False)
-
-    def report(self, state: State, prefix: str) -> None:
-        c = np.asarray(self.cumulative)
-        for q in (50, 95, 100):
-            hit = np.nonzero(c >= q - 1e-9)[0]
-            state.report(f"{prefix}.steps_to_{q}pct", int(hit[0]) if len(hit) else None)
-        state.report(f"{prefix}.final_coverage_pct", float(c[-1]))
-
-
-# -- Voronoi ---------------------------------------------------------------------------------
-
-@dataclass(kw_only=True)
-class SurfaceVoronoi(RuleBase):
-    """3-D surface Voronoi diagram by systematic propagation (thesis 4.1).
-
-    Seeds get labels 1..s; labels spread to side neighbours always and to diagonal ones with
-    probability P = sqrt(2)/2 - 1/2, until every cell is labelled (run with until = "stable").
-    """
-
-    example: ClassVar[tuple[dict, ...]] = (
-        {"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 1}},
-        {"rule": "surface.cells", "params": {"target_cells": 1500}},
-        {"rule": "surface.voronoi", "params": {"seeds": 3}, "until": "stable", "max_iterations": 500},)
-    name: ClassVar[str] = "surface.voronoi"
-    default_iterations: ClassVar[int] = 2000
-    uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
-    creates: ClassVar[dict[str, str]] = {"{coverage}": "Polylines"}
-    fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec("voronoi__label", domain="{cells}", at="cell", intent="out",
-                  doc="region label 1..seeds, 0 = not reached yet"),)
-    cells: str = param("cells", doc="SurfaceCells domain")
-    seeds: int = param(12, ge=1, doc="number of random seeds")
-    seed_points: list[list[float]] | None = param(
-        None, doc="explicit 3-D seed positions (nearest cell each) instead of random seeds")
-    p_diagonal: float = param(P_DIAGONAL, ge=0.0, le=1.0, doc="diagonal propagation probability")
-    coverage: str = param("coverage", doc="Polylines domain receiving the coverage curve")
-
-    def setup(self, state: State) -> None:
-        sc = state.get(self.cells, SurfaceCells)
-        if self.seed_points:
-            pts = np.asarray(self.seed_points, dtype=float)
-            if pts.ndim != 2 or pts.shape[1] != 3:
-                raise InputError("surface.voronoi: seed_points must be a list of [x, y, z]")
-            from scipy.spatial import cKDTree
-            _, near = cKDTree(sc.center3d).query(pts)
-            labels = np.zeros(sc.n_cells, np.int32)
-            labels[near] = np.arange(1, len(pts) + 1, dtype=np.int32)
-        else:
-            labels = place_seeds(sc.n_cells, self.seeds, state.rng(), sc.alive())
-        labels[~sc.alive()] = -1
-        self._grow = VoronoiGrowth(sc.graph, labels, self.p_diagonal)
-        self._log = CoverageLog()
-        self._log.add(self._grow.coverage, int(np.sum(labels > 0)) / sc.n_cells)
-        sc.add_field("voronoi__label", np.maximum(labels, 0), at="cell", doc="Voronoi region")
-        state.add_domain(self.coverage, self._log.domain())
-
-    def step(self, state: State) -> bool:
-        sc = state.get(self.cells, SurfaceCells)
-        n_new = self._grow.step(state.rng())
-        if n_new == 0 and len(self._grow.frontier) == 0:
-            return False                  # finished: keep the log as it is (cheap idle steps)
-        if n_new:
-            sc["voronoi__label"] = np.maximum(self._grow.labels, 0)
-        self._log.add(self._grow.coverage, n_new / sc.n_cells)
-        state.add_domain(self.coverage, self._log.domain())
-        return n_new > 0
-
-    def finish(self, state: State) -> None:
-        self._log.report(state, self.cells + ".voronoi")
 
 
 # -- corrosion / patina ----------------------------------------------------------------------

@@ -6,6 +6,9 @@ from ..hookspecs import hookimpl
 
 @hookimpl
 def procgen_register_rules():
+    from ..ca.lifelike import LifeLike
+    from ..ca.majority import Majority
+    from ..ca.propagation import VoronoiPropagation
     from .grids import FractalNoise, GridToMesh
     from .lines import SmoothLines
     from .meshes import DelaunayTessellation, LoadMesh, MeshBoundary, MeshPrimitive
@@ -13,7 +16,7 @@ def procgen_register_rules():
     from .solids import Extrude, Lathe
 
     return [PoissonDiskSampling, DelaunayTessellation, LoadMesh, MeshPrimitive, MeshBoundary,
-            FractalNoise, GridToMesh, SmoothLines, Extrude, Lathe]
+            FractalNoise, GridToMesh, SmoothLines, Extrude, Lathe, LifeLike, VoronoiPropagation, Majority]
 
 
 @hookimpl

@@ -1,18 +1,22 @@
-"""Cellular-automaton stepping on any neighbour graph: mesh surface cells and raster grids alike.
+"""The one neighbour graph of procgen: raster grids, mesh surface cells, mesh vertices alike.
 
-A :class:`CellGraph` wraps a flat CSR neighbour graph (with a Moore direction code per entry)
-and offers the vectorised gathers a cell rule needs: neighbour counts and sums, the entries of a
-subset of cells (frontiers), and a 3x3 Moore window per cell.  :func:`grid_graph` builds the
-same structure for a flat rectangular grid, so a rule written once runs - and is tested - on a
-plain image grid (2.5-D surfaces) and on a mesh surface (3DSCA, thesis 4.3) alike.
+A :class:`CellGraph` wraps a flat CSR neighbour graph and offers the vectorised gathers a cell
+rule needs: neighbour counts and sums, the entries of a subset of cells (frontiers).  Lattice
+graphs (a Grid, the 3DSCA cells of a mesh) also carry a Moore direction code per entry, which
+gives diagonal tests, the von Neumann sub-graph and a 3x3 window per cell; a graph without
+lattice directions (the edge graph of a mesh's vertices) has ``direction = None``.
+:func:`grid_graph` builds the structure for a flat rectangular grid, so a rule written once runs
+- and is tested - on a plain image grid and on a mesh surface (3DSCA, thesis 4.3) alike.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
+
+from ..errors import InputError
 
 #: Moore slots as (di, dj) = (column, row) offsets; slot k and 7 - k are opposite.
 MOORE = np.array([(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)], np.int64)
@@ -24,12 +28,16 @@ SLOT_TO_WINDOW = np.array([0, 1, 2, 3, 5, 6, 7, 8])
 
 @dataclass(frozen=True, eq=False)
 class CellGraph:
-    """Neighbour lists of n cells: CSR (indptr, indices) + Moore direction code per entry."""
+    """Neighbour lists of n cells: CSR (indptr, indices), optionally a Moore slot per entry.
+
+    ``direction``: Moore slot 0..7 of each entry (see :data:`MOORE`), None for a graph without
+    lattice directions.  ``cross``: entry links two triangles' grids (3DSCA), None if unknown.
+    """
 
     indptr: np.ndarray
     indices: np.ndarray
-    direction: np.ndarray
-    cross: np.ndarray = field(default=None)  # type: ignore[assignment]
+    direction: np.ndarray | None = None
+    cross: np.ndarray | None = None
 
     @property
     def n_cells(self) -> int:
@@ -44,10 +52,15 @@ class CellGraph:
     def degree(self) -> np.ndarray:
         return np.diff(self.indptr)
 
+    def _directions(self) -> np.ndarray:
+        if self.direction is None:
+            raise InputError("this neighbour graph has no lattice directions (no Moore slots)")
+        return self.direction
+
     @cached_property
     def is_diagonal(self) -> np.ndarray:
         """Entry is a diagonal (corner) neighbour."""
-        return IS_DIAGONAL[self.direction]
+        return IS_DIAGONAL[self._directions()]
 
     @cached_property
     def matrix(self) -> sp.csr_matrix:
@@ -55,10 +68,17 @@ class CellGraph:
         data = np.ones(len(self.indices))
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_cells, self.n_cells))
 
+    @cached_property
+    def _count_matrix(self) -> sp.csr_matrix:
+        data = np.ones(len(self.indices), np.int32)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_cells, self.n_cells))
+
     def count(self, mask: np.ndarray) -> np.ndarray:
-        """Number of neighbours of each cell where ``mask`` is True (duplicates count twice)."""
-        return np.bincount(self.rows, weights=np.asarray(mask)[self.indices],
-                           minlength=self.n_cells).astype(np.int64)
+        """(n,) int32 number of neighbours where ``mask`` is True (duplicates count twice).
+
+        An integer sparse product: about 4x faster than a weighted bincount over the entries.
+        """
+        return self._count_matrix @ np.asarray(mask).astype(np.int32, copy=False)
 
     def total(self, values: np.ndarray) -> np.ndarray:
         """Sum of a per-cell quantity over each cell's neighbours."""
@@ -83,15 +103,16 @@ class CellGraph:
     def moore_table(self) -> np.ndarray:
         """(n, 8) neighbour per Moore slot (-1 empty; with several per slot, the last wins)."""
         tab = np.full((self.n_cells, 8), -1, np.int64)
-        tab[self.rows, self.direction] = self.indices
+        tab[self.rows, self._directions()] = self.indices
         return tab
 
     def restrict(self, keep: np.ndarray) -> "CellGraph":
         """The same cells with only the CSR entries where ``keep`` is True."""
         keep = np.asarray(keep, bool)
         indptr = np.concatenate([[0], np.cumsum(np.bincount(self.rows[keep], minlength=self.n_cells))])
+        direction = None if self.direction is None else self.direction[keep]
         cross = None if self.cross is None else self.cross[keep]
-        return CellGraph(indptr.astype(np.int64), self.indices[keep], self.direction[keep], cross)
+        return CellGraph(indptr.astype(np.int64), self.indices[keep], direction, cross)
 
     def neighbourhood(self, name: str) -> "CellGraph":
         """``moore`` (this graph) or ``von_neumann`` (side slots only: no diagonal entries)."""

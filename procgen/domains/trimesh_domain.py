@@ -2,12 +2,15 @@
 from __future__ import annotations
 
 from functools import cached_property
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from ..errors import InputError
 from .base import Domain, frozen
+
+if TYPE_CHECKING:
+    from ..ca.graph import CellGraph
 
 
 def edge_table(faces: np.ndarray, use: np.ndarray | None = None
@@ -120,15 +123,17 @@ class TriMesh(Domain):
         return frozen(ef[ef[:, 1] >= 0])
 
     @cached_property
-    def vertex_neighbors(self) -> tuple[np.ndarray, np.ndarray]:
-        """CSR (indptr, indices) of vertices joined by an edge, neighbours sorted per vertex."""
+    def vertex_neighbors(self) -> "CellGraph":
+        """Vertices joined by an edge as the core's neighbour graph (no lattice directions);
+        ``indptr``/``indices`` CSR, neighbours sorted per vertex."""
+        from ..ca.graph import CellGraph
         e = self.edges
         src = np.concatenate([e[:, 0], e[:, 1]])
         dst = np.concatenate([e[:, 1], e[:, 0]])
         order = np.lexsort((dst, src))
         src, dst = src[order], dst[order]
         indptr = np.concatenate([[0], np.cumsum(np.bincount(src, minlength=self.n_vertices))])
-        return frozen(indptr, np.int64), frozen(dst, np.int64)
+        return CellGraph(frozen(indptr, np.int64), frozen(dst, np.int64))
 
     @cached_property
     def vertex_faces(self) -> tuple[np.ndarray, np.ndarray]:
