@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 
 from procgen import FieldSpec, Grid, InputError, RuleBase, State, TriMesh, param
-from procgen.ca.cells import cell_values, is_cell_domain, put_cell_values
+from procgen.ca.cells import CELL_DOMAIN, cell_values, put_cell_values
 from procgen_surface.domain import SurfaceCells
 
 from . import exposure as ex
@@ -132,10 +132,11 @@ class AgeColour(RuleBase):
     """
 
     example: ClassVar[tuple[dict, ...]] = (
-        _ICO, _CELLS, {"rule": "surface.layers"},
-        {"rule": "surface.corrosion", "iterations": 10, "params": {"seed_rate": 0.01, "b0": 1.2}},
-        {"rule": "wood.age_colour", "params": {"age_field": "corrosion__age", "blend": "ca_only"}})
+        _ICO, _CELLS, {"rule": "ca.life", "iterations": 20,
+                       "params": {"rule": "25/2356", "semantics": "table", "density": 0.05}},
+        {"rule": "wood.age_colour", "params": {"blend": "ca_only"}})
     name: ClassVar[str] = "wood.age_colour"
+    uses: ClassVar[dict[str, str]] = {"{cells}": CELL_DOMAIN}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("{age_field}", domain="{cells}", at="cell", intent="in", units="steps",
                   doc="the CA's step counter per cell"),
@@ -181,9 +182,7 @@ class AgeColour(RuleBase):
         return specs + extra
 
     def step(self, state: State) -> bool:
-        dom = state.get(self.cells)
-        if not is_cell_domain(dom):
-            raise InputError(f"{self.name}: {self.cells!r} is a {dom.kind}, not a cell domain")
+        dom = state.get(self.cells, CELL_DOMAIN)
         for spec in self.field_specs():
             if spec.intent == "in" and spec.name not in dom:
                 raise InputError(f"{self.name}: {self.cells!r} has no field {spec.name!r} ({spec.doc})")
