@@ -122,3 +122,7 @@ def test_without_a_ray_engine_the_error_says_what_to_install(monkeypatch):
     v, f = box((0, 0, 0), (1, 1, 1), 0.5)
     with pytest.raises(InputError, match="embree"):
         ex.intersector(v, f)
+    from procgen.errors import RecipeError
+    with pytest.raises(RecipeError, match="occlusion"):               # refused at check time
+        Exposure.from_params({"occlusion": "rays"})
+    Exposure.from_params({"occlusion": "none"})

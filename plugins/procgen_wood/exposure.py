@@ -51,22 +51,34 @@ def cone_directions(count: int, half_angle: float, up: np.ndarray) -> np.ndarray
     return (cz[:, None] * u + (r * np.cos(phi))[:, None] * a + (r * np.sin(phi))[:, None] * b)
 
 
+NO_ENGINE = ("exposure with occlusion = 'rays' needs a ray engine: pip install "
+             "'procgen-rules[embree]' (or rtree), or set occlusion = 'none'")
+
+
+def ray_engine() -> str | None:
+    """'embree', 'triangle' (trimesh's own, needs rtree) or None: what ray queries can run on."""
+    import importlib.util
+    for name, module in (("embree", "embreex"), ("triangle", "rtree")):
+        try:
+            if importlib.util.find_spec(module) is not None:
+                __import__(module)
+                return name
+        except (ImportError, ValueError):
+            continue
+    return None
+
+
 def intersector(vertices: np.ndarray, faces: np.ndarray):
     """A trimesh ray intersector: Embree when ``embreex`` is installed, else trimesh's own."""
     import trimesh
+    engine = ray_engine()
+    if engine is None:
+        raise InputError(NO_ENGINE)
     mesh = trimesh.Trimesh(vertices, faces, process=False)
-    try:
-        import embreex  # noqa: F401
+    if engine == "embree":
         from trimesh.ray.ray_pyembree import RayMeshIntersector
-        return RayMeshIntersector(mesh)
-    except ImportError:
-        pass
-    try:
-        import rtree  # noqa: F401
-    except ImportError:
-        raise InputError("exposure with occlusion = 'rays' needs a ray engine: pip install "
-                         "'procgen-rules[embree]' (or rtree), or set occlusion = 'none'") from None
-    from trimesh.ray.ray_triangle import RayMeshIntersector
+    else:
+        from trimesh.ray.ray_triangle import RayMeshIntersector
     return RayMeshIntersector(mesh)
 
 

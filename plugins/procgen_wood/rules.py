@@ -243,6 +243,8 @@ class Exposure(RuleBase):
             ex.sun_directions(1, self.latitude, np.asarray(self.up), np.asarray(self.south))
         except InputError as exc:
             raise ValueError(str(exc)) from None
+        if self.occlusion == "rays" and ex.ray_engine() is None:
+            raise ValueError(ex.NO_ENGINE)
 
     def step(self, state: State) -> bool:
         sc = state.get(self.cells, SurfaceCells)
