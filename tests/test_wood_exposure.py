@@ -126,3 +126,18 @@ def test_without_a_ray_engine_the_error_says_what_to_install(monkeypatch):
     with pytest.raises(RecipeError, match="occlusion"):               # refused at check time
         Exposure.from_params({"occlusion": "rays"})
     Exposure.from_params({"occlusion": "none"})
+
+
+def test_cell_diagram_draws_every_cross_edge_link_once():
+    import xml.etree.ElementTree as ET
+    from procgen_wood.diagram import cells_svg
+    v = np.array([[0, 0, 0], [1, 0.1, 0], [0.2, 1, 0], [-0.9, 0.3, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    for nb in ("pairs", "unfold"):
+        sc = SurfaceCells.from_mesh(v, f, cell_size=0.1, neighbours=nb)
+        root = ET.fromstring(cells_svg(sc, stem="d"))
+        ns = "{http://www.w3.org/2000/svg}"
+        links = {tuple(sorted((int(a), int(b)))) for a, b in zip(sc.graph.rows[sc.graph.cross],
+                                                               sc.graph.indices[sc.graph.cross])}
+        assert len(root.findall(f"{ns}line")) == len(links) > 0
+        assert len(root.findall(f"{ns}polygon")) == sc.n_cells + 2

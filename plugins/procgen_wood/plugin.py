@@ -6,3 +6,9 @@ from procgen import hookimpl
 def procgen_register_rules():
     from .rules import RULES
     return list(RULES)
+
+
+@hookimpl
+def procgen_register_exporters():
+    from .diagram import EXPORTERS
+    return list(EXPORTERS)
