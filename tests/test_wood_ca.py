@@ -106,9 +106,9 @@ def test_faithful_mode_is_isotropic_under_a_rotation(host, tmp_path):
         out.append(st.get("cells"))
     a, b = out
     assert a.n_cells == b.n_cells
-    for f in ("ca__alive", "ca__age", "weathering__rgb"):
+    for f in ("ca__alive", "ca__age", "weathering__color"):
         assert np.array_equal(a[f], b[f]), f
-    assert not np.array_equal(a["wood__rgb"], b["wood__rgb"])
+    assert not np.array_equal(a["wood__color"], b["wood__color"])
 
 
 def test_same_seed_same_bytes_and_the_files_load_in_trimesh(host, tmp_path):

@@ -108,7 +108,7 @@ def test_rain_gate_keeps_sheltered_cells_brown(shelter):
     _run(rule, shelter)
     dry = shelter["exposure__rain"] < 0.05
     grey0 = np.asarray(rule.colors[rule.first_grey]) / 255
-    rgb = shelter["weathering__rgb"]
+    rgb = shelter["weathering__color"]
     is_grey = np.zeros(len(rgb), bool)
     for c in rule.colors[rule.first_grey:]:
         is_grey |= np.all(np.isclose(rgb, np.asarray(c) / 255), axis=1)

@@ -29,7 +29,7 @@ _CELLS = {"rule": "surface.cells", "params": {"target_cells": 1500}}
 
 @dataclass(kw_only=True)
 class WoodGrain(RuleBase):
-    """Generator: the procedural wood texture of thesis Fig. 3.10 as a Grid image (wood__rgb).
+    """Generator: the procedural wood texture of thesis Fig. 3.10 as a Grid image (wood__color).
 
     Value noise (Fig. 3.1, corrected hash), 3x3 smoothing (Fig. 3.3), turbulence (Fig. 3.9) and
     the ring function |sin(2 pi xyPeriod (f(x, y) + turbPower T / 256))| with the f of Figs
@@ -41,7 +41,7 @@ class WoodGrain(RuleBase):
     name: ClassVar[str] = "wood.grain"
     creates: ClassVar[dict[str, str]] = {"{texture}": "Grid"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec("wood__rgb", domain="{texture}", at="cell", intent="out",
+        FieldSpec("wood__color", domain="{texture}", at="cell", intent="out", units="rgb",
                   doc="wood grain colour in [0, 1] (sRGB bytes / 255)"),)
     texture: str = param("wood_texture", doc="name of the Grid image to create")
     width: int = param(256, ge=8, le=8192, units="texels", doc="texture width (thesis: not given)")
@@ -73,7 +73,7 @@ class WoodGrain(RuleBase):
                            variant=self.hash, pattern=self.pattern, base_rgb=tuple(self.base_rgb),
                            amp_rgb=tuple(self.amp_rgb))
         g = Grid((self.height, self.width), spacing=1.0 / self.width)
-        g.add_field("wood__rgb", img / 255.0, at="cell", doc="wood grain colour (bytes / 255)")
+        g.add_field("wood__color", img / 255.0, at="cell", doc="wood grain colour (bytes / 255)")
         state.add_domain(self.texture, g)
         return True
 
@@ -92,8 +92,8 @@ class WoodMap(RuleBase):
     name: ClassVar[str] = "wood.map"
     uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells", "{texture}": "Grid"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec("wood__rgb", domain="{texture}", at="cell", intent="in", doc="texture image"),
-        FieldSpec("wood__rgb", domain="{cells}", at="cell", intent="out",
+        FieldSpec("wood__color", domain="{texture}", at="cell", intent="in", units="rgb", doc="texture image"),
+        FieldSpec("wood__color", domain="{cells}", at="cell", intent="out", units="rgb",
                   doc="wood grain colour in [0, 1] per cell"),)
     cells: str = param("cells", doc="SurfaceCells domain")
     texture: str = param("wood_texture", doc="Grid image made by wood.grain")
@@ -110,10 +110,10 @@ class WoodMap(RuleBase):
 
     def step(self, state: State) -> bool:
         sc = state.get(self.cells, SurfaceCells)
-        img = np.asarray(state.get(self.texture, Grid)["wood__rgb"], float)
+        img = np.asarray(state.get(self.texture, Grid)["wood__color"], float)
         st = texture_coordinates(sc.center3d, sc.normal, mode=self.mode, plane_s=self.plane_s,
                                  plane_t=self.plane_t, scale=self.scale)
-        sc.add_field("wood__rgb", np.clip(sample_bilinear(img, st), 0, 1), at="cell",
+        sc.add_field("wood__color", np.clip(sample_bilinear(img, st), 0, 1), at="cell",
                      doc=f"wood grain ({self.mode})")
         return True
 
@@ -125,7 +125,7 @@ class AgeColour(RuleBase):
     Reads the CA's per-cell step counter (``age_field``), optionally weighted by exposure
     (a + b E_sun + c E_rain: the value grows by that much per step alive, exactly the count
     times the rate since exposure is constant), picks the palette colour of its range
-    (weathering__rgb; the palette is ours, see palette.py) and writes surface__color by
+    (weathering__color; the palette is ours, see palette.py) and writes surface__color by
     ``blend``: modulate (the thesis), lerp (reaches grey), ca_only or texture_only.
     With ``rain_gate`` > 0, cells whose rain exposure is below it never pass the last brown
     range: greying needs wetting, so sheltered sunny wood stays brown.
@@ -142,7 +142,7 @@ class AgeColour(RuleBase):
                   doc="the CA's step counter per cell"),
         FieldSpec("weathering__age", domain="{cells}", at="cell", intent="out", units="steps",
                   doc="weathering value: steps alive x exposure rate (= the count without exposure)"),
-        FieldSpec("weathering__rgb", domain="{cells}", at="cell", intent="out",
+        FieldSpec("weathering__color", domain="{cells}", at="cell", intent="out", units="rgb",
                   doc="palette colour of the value's range, in [0, 1]"),
         FieldSpec("surface__color", domain="{cells}", at="cell", intent="out", units="rgb",
                   doc="final colour in [0, 1]"),)
@@ -174,7 +174,7 @@ class AgeColour(RuleBase):
         specs = super().field_specs()
         extra = []
         if self.blend not in ("ca_only",):
-            extra.append(FieldSpec("wood__rgb", domain=self.cells, at="cell", intent="in",
+            extra.append(FieldSpec("wood__color", domain=self.cells, at="cell", intent="in", units="rgb",
                                    doc="wood grain per cell (wood.map)"))
         if self.exposure or self.rain_gate > 0:
             extra += [FieldSpec(f"exposure__{k}", domain=self.cells, at="cell", intent="in",
@@ -196,11 +196,11 @@ class AgeColour(RuleBase):
             dry = np.asarray(cell_values(dom, "exposure__rain")) < self.rain_gate
             cap = np.where(dry, self.first_grey - 1, len(self.thresholds) - 1)
         ca = palette_colors(age, self.thresholds, self.colors, interpolate=self.interpolate, cap=cap)
-        wood = None if self.blend == "ca_only" else np.asarray(cell_values(dom, "wood__rgb"), float)
+        wood = None if self.blend == "ca_only" else np.asarray(cell_values(dom, "wood__color"), float)
         fresh = np.asarray(self.colors[0], float) / 255.0
         out = compose(wood, ca, age, blend=self.blend, fresh=fresh, v_full=self.v_full)
         put_cell_values(dom, "weathering__age", age, units="steps", doc="steps alive x exposure rate")
-        put_cell_values(dom, "weathering__rgb", ca, doc="palette colour of the value's range")
+        put_cell_values(dom, "weathering__color", ca, doc="palette colour of the value's range")
         put_cell_values(dom, "surface__color", out, units="rgb", doc=f"wood weathering colour ({self.blend})")
         k = palette_index(age, self.thresholds) if cap is None else \
             np.minimum(palette_index(age, self.thresholds), cap)
