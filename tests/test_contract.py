@@ -12,17 +12,7 @@ from procgen.testing import check_rule_contract
 _HOST = get_plugin_manager()
 
 
-#: rules that still write fields they do not declare (their family's owner adds the FieldSpecs;
-#: strict: the mark must go once they are declared)
-UNDECLARED_WRITES = {
-    "snaxel.grow": "cloud/snaxel__cluster, snaxel__curve, cloud_history/*, cloud_view/view__kind",
-    "snaxel.cloudscape": "cloudscape/cloud__depth",
-}
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(
-    strict=True, reason=f"writes undeclared fields: {UNDECLARED_WRITES[n]}")) if n in UNDECLARED_WRITES else n
-    for n in _HOST.rules])
+@pytest.mark.parametrize("name", list(_HOST.rules))
 def test_rule_contract(name):
     check_rule_contract(_HOST.rules[name], _HOST)
 

@@ -8,7 +8,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from procgen import InputError, Polylines, State, TriMesh, param
+from procgen import FieldSpec, InputError, Polylines, State, TriMesh, param
 
 from .fractal import ensemble_dimension
 from .growth import CloudGrowth, Snapshot
@@ -165,6 +165,16 @@ class GrowCloud(GrowthRule):
         {"rule": "snaxel.grow", "params": _EXAMPLE_GROWTH, "until": "stable"},)
     creates: ClassVar[dict[str, str]] = {"{cloud}": "Polylines", "{cloud}_history": "Polylines",
                                          "{cloud}_view": "Polylines"}
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        *(FieldSpec(name, domain=dom, at="point", intent="out", doc=doc)
+          for dom in ("{cloud}", "{cloud}_history")
+          for name, doc in (("snaxel__curve", "curve id of each snaxel"),
+                            ("snaxel__cluster", "cluster id of each snaxel's curve"))),
+        FieldSpec("snapshot__step", domain="{cloud}_history", at="line", intent="out",
+                  doc="Euler step of the snapshot"),
+        FieldSpec("view__kind", domain="{cloud}_view", at="line", intent="out",
+                  doc="0 tessellation edge, 1 snake"),
+    )
 
     cloud: str = param("cloud", doc="name of the Polylines holding the cloud outline")
     view_window: list[float] | None = param(None, doc="[x0, y0, x1, y1] of the Figure 1.2 close-up; None: auto")
@@ -224,6 +234,11 @@ class Cloudscape(GrowthRule):
     example: ClassVar[tuple[dict[str, Any], ...]] = (
         {"rule": "snaxel.cloudscape", "params": dict(_EXAMPLE_GROWTH, n_clouds=2, margin=20.0)},)
     creates: ClassVar[dict[str, str]] = {"{scape}": "Polylines"}
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("cloud__depth", domain="{scape}", at="line", intent="out", doc="0 = farthest, drawn first"),
+        FieldSpec("snaxel__curve", domain="{scape}", at="point", intent="out",
+                  doc="curve id of each snaxel (per cloud)"),
+    )
 
     scape: str = param("cloudscape", doc="name of the Polylines holding every cloud outline")
     n_clouds: int = param(4, ge=1, le=64, doc="number of clouds")
