@@ -10,6 +10,7 @@ plugin names only its own.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 _PKG = Path(__file__).resolve().parent
 SOURCE_ROOT = _PKG.parent      # a checkout: rules/ and gallery/ beside the procgen package
@@ -30,6 +31,26 @@ def plugin_gallery_lists(package_dir: Path, *names: str) -> list[Path]:
     shipped = Path(package_dir) / "gallery"
     base = shipped if shipped.is_dir() else SOURCE_ROOT / "gallery"
     return [base / name for name in names]
+
+
+def shipping_hooks(plugin_file: str, families: tuple[str, ...], lists: tuple[str, ...]
+                   ) -> tuple[Callable[[], list], Callable[[], list[Path]]]:
+    """The ``procgen_recipe_dirs`` and ``procgen_gallery_lists`` hook implementations of a
+    built-in family plugin that ships ``rules/<family>`` and ``gallery/<list>``; assign them to
+    those names in the plugin module (pluggy finds hook implementations by name)."""
+    from .hookspecs import hookimpl
+
+    package_dir = Path(plugin_file).parent
+
+    @hookimpl
+    def procgen_recipe_dirs() -> list:
+        return plugin_recipe_dirs(package_dir, *families)
+
+    @hookimpl
+    def procgen_gallery_lists() -> list[Path]:
+        return plugin_gallery_lists(package_dir, *lists)
+
+    return procgen_recipe_dirs, procgen_gallery_lists
 
 
 def builtin_rules_dir() -> Path:

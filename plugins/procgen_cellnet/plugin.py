@@ -4,10 +4,8 @@ gallery list, as any outside plugin does.
 Importing the network module registers the ``CellNetwork`` domain kind as soon as the plugin is
 loaded, so ``State.load`` and the recipe checker know it before any rule runs.
 """
-from pathlib import Path
-
 from procgen import hookimpl
-from procgen.data import plugin_gallery_lists, plugin_recipe_dirs
+from procgen.data import shipping_hooks
 
 from . import network as _network  # noqa: F401  (registers the CellNetwork domain kind)
 
@@ -36,11 +34,4 @@ def procgen_register_exporters():
     return list(EXPORTERS)
 
 
-@hookimpl
-def procgen_recipe_dirs():
-    return plugin_recipe_dirs(Path(__file__).parent, "cellnet")
-
-
-@hookimpl
-def procgen_gallery_lists():
-    return plugin_gallery_lists(Path(__file__).parent, "cellnet.toml")
+procgen_recipe_dirs, procgen_gallery_lists = shipping_hooks(__file__, ("cellnet",), ("cellnet.toml",))

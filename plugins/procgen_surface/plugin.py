@@ -4,10 +4,8 @@ recipes and gallery list, as any outside plugin does.
 Importing the domain module here registers the ``SurfaceCells`` kind as soon as the plugin is
 loaded, so ``State.load`` can read saved states before any rule is looked up.
 """
-from pathlib import Path
-
 from procgen import hookimpl
-from procgen.data import plugin_gallery_lists, plugin_recipe_dirs
+from procgen.data import shipping_hooks
 
 from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domain kind)
 
@@ -24,11 +22,4 @@ def procgen_register_exporters():
     return list(EXPORTERS)
 
 
-@hookimpl
-def procgen_recipe_dirs():
-    return plugin_recipe_dirs(Path(__file__).parent, "meshes")
-
-
-@hookimpl
-def procgen_gallery_lists():
-    return plugin_gallery_lists(Path(__file__).parent, "meshes.toml")
+procgen_recipe_dirs, procgen_gallery_lists = shipping_hooks(__file__, ("meshes",), ("meshes.toml",))

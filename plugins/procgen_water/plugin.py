@@ -1,9 +1,7 @@
 """Hook implementations that register this family's rules with procgen and ship its
 recipes and gallery list, as any outside plugin does."""
-from pathlib import Path
-
 from procgen import hookimpl
-from procgen.data import plugin_gallery_lists, plugin_recipe_dirs
+from procgen.data import shipping_hooks
 
 
 @hookimpl
@@ -18,11 +16,4 @@ def procgen_register_exporters():
     return list(EXPORTERS)
 
 
-@hookimpl
-def procgen_recipe_dirs():
-    return plugin_recipe_dirs(Path(__file__).parent, "terrain")
-
-
-@hookimpl
-def procgen_gallery_lists():
-    return plugin_gallery_lists(Path(__file__).parent, "terrain.toml")
+procgen_recipe_dirs, procgen_gallery_lists = shipping_hooks(__file__, ("terrain",), ("terrain.toml",))

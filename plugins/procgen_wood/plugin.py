@@ -1,15 +1,13 @@
-"""Hook implementations that register the wood-weathering rules with procgen and ship its
-recipes and gallery list, as any outside plugin does."""
-from pathlib import Path
-
+"""The wood-weathering family's hooks: its rules (grain, texture mapping, age colour, exposure,
+the table stand-in), the cell-diagram exporter, and its recipes and gallery list."""
 from procgen import hookimpl
-from procgen.data import plugin_gallery_lists, plugin_recipe_dirs
+from procgen.data import shipping_hooks
 
 
 @hookimpl
 def procgen_register_rules():
-    from .rules import RULES
-    return list(RULES)
+    from .rules import AgeColour, Exposure, WoodGrain, WoodMap, WoodTable
+    return [WoodGrain, WoodMap, AgeColour, Exposure, WoodTable]
 
 
 @hookimpl
@@ -18,11 +16,4 @@ def procgen_register_exporters():
     return list(EXPORTERS)
 
 
-@hookimpl
-def procgen_recipe_dirs():
-    return plugin_recipe_dirs(Path(__file__).parent, "weathering")
-
-
-@hookimpl
-def procgen_gallery_lists():
-    return plugin_gallery_lists(Path(__file__).parent, "weathering.toml")
+procgen_recipe_dirs, procgen_gallery_lists = shipping_hooks(__file__, ("weathering",), ("weathering.toml",))

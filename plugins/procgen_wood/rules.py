@@ -295,5 +295,3 @@ class WoodTable(RuleBase):
         state.report(f"{self.mesh}.n_faces", len(f))
         return True
 
-
-RULES = [WoodGrain, WoodMap, AgeColour, Exposure, WoodTable]
