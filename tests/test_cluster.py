@@ -21,9 +21,9 @@ from pathlib import Path
 
 import pytest
 
-distributed = pytest.importorskip("distributed")
+import distributed  # the test extra installs it: a missing one fails, never skips
 
-from procgen.cli import main  # noqa: E402
+from procgen.cli import main
 from procgen.jobs import STAMP  # noqa: E402
 from procgen.sweep import sweep  # noqa: E402
 

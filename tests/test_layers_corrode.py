@@ -229,7 +229,7 @@ def test_check_refuses_a_domain_without_cells_and_an_unknown_material(host):
     from procgen.recipes import check_recipe
 
     pts = [{"rule": "points.poisson_disk", "params": {"radius": 0.1, "domain": "pts"}}]
-    with pytest.raises(RecipeError, match=r"steps\[1\] \(layers.stack\): .*'pts' is a PointSet, not a cell domain"):
+    with pytest.raises(RecipeError, match=r"steps\[1\] \(layers.stack\): needs domain 'pts' to be a cell domain .*made it a PointSet"):
         check_recipe({"steps": pts + [{"rule": "layers.stack", "params": {"cells": "pts"}}]}, host)
     grid = [{"rule": "grid.noise", "params": {"grid": "cells", "nx": 8, "ny": 8}}]
     with pytest.raises(RecipeError, match="unknown material preset 'coper'.*did you mean 'copper'"):

@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from procgen import FieldSpec, InputError, RuleBase, State, param
-from procgen.ca.cells import cell_graph, cell_values, n_cells, put_cell_values
+from procgen.ca.cells import CELL_DOMAIN, cell_graph, cell_values, n_cells, put_cell_values
 from procgen.ca.coverage import CoverageLog
 from procgen.ca.graph import MOORE
 from procgen.exchange.preview import camera_basis
@@ -31,21 +31,6 @@ CELLS = "{cells}"
 _GRID = ({"rule": "grid.noise", "params": {"grid": "cells", "nx": 24, "ny": 20}},)
 _STACK = _GRID + ({"rule": "layers.stack"},)
 STACK_GEOMETRY_KEYS = ("thickness", "noise", "hurst", "smoothness")
-
-
-def check_cell_domain(rule: RuleBase, earlier: list[RuleBase]) -> None:
-    """At check time: the domain ``rule.cells`` must be a cell domain (a Grid, surface cells...)."""
-    from procgen.ca.cells import is_cell_domain
-    from procgen.domains import DOMAIN_KINDS
-
-    for r in reversed(earlier):
-        kind = r.domains_created().get(rule.cells)
-        if kind is not None:
-            cls = DOMAIN_KINDS.get(kind)
-            if cls is not None and not is_cell_domain(cls):
-                raise InputError(f"{rule.name}: domain {rule.cells!r} is a {kind}, not a cell domain "
-                                 "(layers live on a Grid or on surface cells)")
-            return
 
 
 def parse_stack(specs: Any, where: str = "layers") -> tuple[MaterialTable, list[dict[str, float]]]:
@@ -74,7 +59,7 @@ class StackLayers(RuleBase):
 
     name: ClassVar[str] = "layers.stack"
     example: ClassVar[tuple[dict, ...]] = _STACK
-    uses: ClassVar[dict[str, str]] = {CELLS: "Domain"}
+    uses: ClassVar[dict[str, str]] = {CELLS: CELL_DOMAIN}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "out", units="length", doc="thickness per layer, bottom first"),
     ) + table_field_specs(CELLS)
@@ -92,11 +77,8 @@ class StackLayers(RuleBase):
         except InputError as exc:
             raise ValueError(str(exc)) from None
 
-    def check_chain(self, earlier: list[RuleBase]) -> None:
-        check_cell_domain(self, earlier)
-
     def step(self, state: State) -> bool:
-        dom = state.get(self.cells)
+        dom = state.get(self.cells, CELL_DOMAIN)
         graph = cell_graph(dom, "moore", self.name)
         table, geo = parse_stack(self.layers, f"{self.name}.layers")
         centres = cell_centres(dom)
@@ -132,7 +114,7 @@ class Corrode(RuleBase):
     default_iterations: ClassVar[int] = 950
     example: ClassVar[tuple[dict, ...]] = _STACK + (
         {"rule": "layers.corrode", "iterations": 15, "params": {"seed_rate": 0.01, "b0": 1.2, "initial_seeds": 2}},)
-    uses: ClassVar[dict[str, str]] = {CELLS: "Domain"}
+    uses: ClassVar[dict[str, str]] = {CELLS: CELL_DOMAIN}
     creates: ClassVar[dict[str, str]] = {"{coverage}": "Polylines"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "inout", units="length",
@@ -205,8 +187,7 @@ class Corrode(RuleBase):
             raise ValueError(f"the product layer {self.product!r} cannot also be consumed")
 
     def check_chain(self, earlier: list[RuleBase]) -> None:
-        """A cell domain, whose stack (built earlier) has the consumed and product layers."""
-        check_cell_domain(self, earlier)
+        """The stack built earlier on these cells has the consumed and product layers."""
         made = [r for r in earlier if isinstance(getattr(r, "layers", None), list)
                 and self.cells in (getattr(r, "cells", None), getattr(r, "grid", None))]
         if made:
@@ -223,7 +204,7 @@ class Corrode(RuleBase):
         return cons, table.index(self.product, f"{where}.product")
 
     def setup(self, state: State) -> None:
-        dom = state.get(self.cells)
+        dom = state.get(self.cells, CELL_DOMAIN)
         self._graph = cell_graph(dom, "moore", self.name)
         table = load_table(dom, self.name)
         self._cons, self._prod = self._layer_indices(table)
@@ -324,7 +305,7 @@ class Corrode(RuleBase):
                         units="1", doc="0 strong, 1 weak, 2 corroded, 3 hole (plate 2.2 maps)")
 
     def step(self, state: State) -> bool:
-        dom = state.get(self.cells)
+        dom = state.get(self.cells, CELL_DOMAIN)
         st = self._st
         before = st.status.copy()
         c0, p0 = st.consumable.sum(axis=1), st.product.copy()
@@ -379,7 +360,7 @@ class Shade(RuleBase):
 
     name: ClassVar[str] = "layers.shade"
     example: ClassVar[tuple[dict, ...]] = _STACK + ({"rule": "layers.shade"},)
-    uses: ClassVar[dict[str, str]] = {CELLS: "Domain"}
+    uses: ClassVar[dict[str, str]] = {CELLS: CELL_DOMAIN}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "in", units="length"),
         FieldSpec("{field}", CELLS, "cell", "out", units="rgb", doc="colour in [0, 1]"),)
@@ -414,11 +395,8 @@ class Shade(RuleBase):
         except InputError as exc:
             raise ValueError(str(exc)) from None
 
-    def check_chain(self, earlier: list[RuleBase]) -> None:
-        check_cell_domain(self, earlier)
-
     def step(self, state: State) -> bool:
-        dom = state.get(self.cells)
+        dom = state.get(self.cells, CELL_DOMAIN)
         table = load_table(dom, self.name)
         if self.opacity_scale != 1.0:
             table = scale_opacity(table, self.opacity_scale)
