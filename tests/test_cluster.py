@@ -99,14 +99,16 @@ class Cluster:
         sched = self._spawn([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
                              "--port", "0", "--no-dashboard", "--scheduler-file", str(sched_file),
                              "--idle-timeout", "600"], "scheduler.log")
-        deadline = time.monotonic() + 60
-        while not self.address:
-            if sched.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError("dask scheduler did not start:\n" + (self.root / "scheduler.log").read_text())
+        for _ in range(600):        # poll its address file for up to about a minute
+            if sched.poll() is not None:
+                break
             try:
                 self.address = json.loads(sched_file.read_text())["address"]
+                break
             except (OSError, ValueError, KeyError):
                 time.sleep(0.1)
+        if not self.address:
+            raise RuntimeError("dask scheduler did not start:\n" + (self.root / "scheduler.log").read_text())
         # two worker processes (each under a nanny that restarts it if it dies) sharing one namespace
         cmd = [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nworkers", "2",
                "--nthreads", "1", "--no-dashboard", "--death-timeout", "60", "--local-directory", str(self.scratch)]
