@@ -14,7 +14,7 @@ import numpy as np
 
 from procgen import InputError, Polylines
 from procgen.builtin.lines import chaikin
-from procgen.exchange.svg import finish, fmt_number, path_data
+from procgen.exchange.svg import finish, fmt_number, path_data, vertical_gradient
 
 from .svgdoc import Page
 
@@ -67,11 +67,7 @@ def cloud_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, fi
     if gradient:
         if len(gradient) < 2:
             raise InputError("cloud_svg: gradient needs at least two colours (top, bottom)")
-        grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id="cloud-fill")
-        for i, colour in enumerate(gradient):
-            grad.add_stop_color(i / (len(gradient) - 1), colour)
-        dwg.defs.add(grad)
-        fill_ref = "url(#cloud-fill)"
+        fill_ref = vertical_gradient(dwg, gradient, "cloud-fill")
     layer = page.layer("cloud")
     for i in range(dom.n_lines):
         pts = chaikin(dom.line(i), bool(dom.closed[i]), int(smooth))

@@ -69,6 +69,16 @@ def finish(dwg: svgwrite.Drawing, provenance: dict[str, Any] | None, title: str 
     return ('<?xml version="1.0" encoding="utf-8"?>\n' + text[:head_end] + meta + text[head_end:]).encode()
 
 
+def vertical_gradient(dwg: Any, colours: Sequence[str], ident: str, *, y_up: bool = False) -> str:
+    """Add a top-to-bottom linear gradient over the filled shape's bounding box to ``dwg``'s
+    defs (``y_up``: the shape is drawn in a y-flipped group) and return its fill reference."""
+    grad = dwg.linearGradient(start=(0, 1 if y_up else 0), end=(0, 0 if y_up else 1), id=ident)
+    for i, colour in enumerate(colours):
+        grad.add_stop_color(i / (len(colours) - 1), colour)
+    dwg.defs.add(grad)
+    return f"url(#{ident})"
+
+
 def polylines_svg(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
                   fill: str | None = "#ffffff", stroke: str | None = "#4a5a70", stroke_width: float = 1.5,
                   gradient: Sequence[str] | None = None, background: str | None = "#8fb8e0",
@@ -84,11 +94,7 @@ def polylines_svg(domain: Domain, *, stem: str = "", provenance: dict[str, Any] 
         if len(gradient) < 2:
             raise InputError("svg: gradient needs at least two colours (top, bottom)")
         # the path lives in the y-flipped group: bounding-box y=1 is the top on screen
-        grad = dwg.linearGradient(start=(0, 1), end=(0, 0), id="procgen-fill")
-        for i, colour in enumerate(gradient):
-            grad.add_stop_color(i / (len(gradient) - 1), colour)
-        dwg.defs.add(grad)
-        fill_ref = "url(#procgen-fill)"
+        fill_ref = vertical_gradient(dwg, gradient, "procgen-fill", y_up=True)
     colours = domain[color_field] if color_field else None
     for i in range(domain.n_lines):
         pts = domain.line(i)
