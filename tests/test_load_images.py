@@ -66,7 +66,7 @@ def test_mesh_image_field_through_uvs_or_a_planar_projection(host, tmp_path):
     expect = np.clip(u * 64 - 0.5, 0, 63) * 4 / 255
     np.testing.assert_allclose(m["image__value"], expect, atol=1e-9)
     # the same through a vertex UV field: u from x, v from y
-    m.add_field("surface__uv", (m.vertices[:, :2] - m.vertices[:, :2].min(0)) / np.ptp(m.vertices[:, :2], 0),
+    m.add_field("mesh__uv", (m.vertices[:, :2] - m.vertices[:, :2].min(0)) / np.ptp(m.vertices[:, :2], 0),
                 at="vertex")
     from procgen.builtin.loaders import MeshImageField
     rule = MeshImageField.from_params({"file": str(tmp_path / "ramp.png"), "field": "image__by_uv"})

@@ -12,8 +12,9 @@ from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domai
 
 @hookimpl
 def procgen_register_rules():
+    from .image import SurfaceImageField
     from .rules import BuildCells, CupPrimitive, LatticePrimitive
-    return [CupPrimitive, LatticePrimitive, BuildCells]
+    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceImageField]
 
 
 @hookimpl

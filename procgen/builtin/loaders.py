@@ -241,7 +241,7 @@ def _grey(values: np.ndarray) -> np.ndarray:
 
 
 @dataclass(kw_only=True)
-class _ImageFieldParams(RuleBase):
+class ImageFieldParams(RuleBase):
     """Parameters the two image-field rules share (declared once here)."""
 
     file: str = param(doc="image (.png, .jpg...) or .npy: absolute, relative to the recipe, or shipped")
@@ -270,7 +270,7 @@ class _ImageFieldParams(RuleBase):
 
 
 @dataclass(kw_only=True)
-class GridImageField(_ImageFieldParams):
+class GridImageField(ImageFieldParams):
     """A greyscale or RGB image as a cell field on an existing Grid (a painted weak map, a rain mask).
 
     The picture is stretched over the whole grid (top row of the image = north edge), resampled
@@ -312,11 +312,11 @@ def sample_bilinear(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 
 @dataclass(kw_only=True)
-class MeshImageField(_ImageFieldParams):
+class MeshImageField(ImageFieldParams):
     """An image as a face field of a TriMesh, through its UVs or a planar projection.
 
     ``projection = 'uv'`` reads the mesh's UV field (vertex (n, 2) or face corners (m, 3, 2),
-    v = 1 at the image's top row, repeating); 'xy', 'xz' or 'yz' project the image onto the
+    v = 1 at the image's top row, repeating; ``mesh.load`` keeps an OBJ's UVs as ``mesh__uv``); 'xy', 'xz' or 'yz' project the image onto the
     mesh's bounding box seen along the missing axis (a decal on an extruded outline). Each face
     takes the value at its UV centroid.
     """
@@ -331,7 +331,8 @@ class MeshImageField(_ImageFieldParams):
 
     mesh: str = param("mesh", doc="TriMesh to paint")
     projection: str = param("uv", choices=("uv", "xy", "xz", "yz"), doc="mesh UVs, or a planar projection")
-    uv_field: str = param("surface__uv", doc="UV field when projection = 'uv' (vertex or face corners)")
+    uv_field: str = param("mesh__uv", doc="UV field when projection = 'uv' (vertex or face corners; "
+                                          "mesh.load writes mesh__uv)")
 
     def uvs(self, m: TriMesh) -> np.ndarray:
         """(n, 2) vertex UVs or (m, 3, 2) corner UVs."""

@@ -1,6 +1,7 @@
 """Mesh generators and converters: Delaunay, file loading, primitives, boundary loops."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
@@ -10,6 +11,7 @@ import numpy as np
 from ..data import meshes_dir
 from ..domains import PointSet, Polylines, TriMesh
 from ..errors import InputError
+from ..fields import FieldSpec
 from ..geometry import ccw_faces
 from ..params import param
 from ..rules import RuleBase
@@ -61,12 +63,23 @@ def resolve_mesh_path(path: str, base_dir: Path | None) -> Path:
     raise InputError(f"mesh.load: file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
 
 
+#: face-corner texture coordinates read from a mesh file (the vocabulary's ``mesh__uv``)
+UV_FIELD = "mesh__uv"
+
+
 def load_mesh_file(path: Path) -> TriMesh:
-    """Read OBJ/PLY/STL/OFF/GLB with trimesh (quads and n-gons triangulated), as one TriMesh."""
+    """Read OBJ/PLY/STL/OFF/GLB with trimesh (quads and n-gons triangulated), as one TriMesh.
+
+    Texture coordinates in the file become the face field ``mesh__uv`` (m, 3, 2): one UV per
+    face corner, so a seam (one position, two UVs) keeps both sides' coordinates even after
+    ``clean_mesh`` welds the positions into one vertex.
+    """
     import trimesh
 
     try:
-        loaded: Any = trimesh.load(str(path), force="mesh", process=False)
+        with warnings.catch_warnings():      # trimesh warns about materials it cannot find
+            warnings.simplefilter("ignore")
+            loaded: Any = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types for broken files
         raise InputError(f"mesh.load: {path.name}: cannot read ({type(exc).__name__}: {exc})") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) < 3:
@@ -77,7 +90,15 @@ def load_mesh_file(path: Path) -> TriMesh:
         raise InputError(f"mesh.load: {path.name}: vertices contain NaN or inf")
     if faces.min() < 0 or faces.max() >= len(v):
         raise InputError(f"mesh.load: {path.name}: faces reference missing vertices")
-    return TriMesh(v, faces)
+    mesh = TriMesh(v, faces)
+    uv = getattr(loaded.visual, "uv", None)
+    if uv is not None and len(uv) == len(v):
+        uv = np.asarray(uv, dtype=np.float64)[:, :2]
+        if not np.all(np.isfinite(uv)):
+            raise InputError(f"mesh.load: {path.name}: texture coordinates contain NaN or inf")
+        mesh.add_field(UV_FIELD, uv[faces], at="face",
+                       doc=f"texture coordinates of each face corner, from {path.name}")
+    return mesh
 
 
 @dataclass(kw_only=True)
@@ -86,12 +107,17 @@ class LoadMesh(RuleBase):
 
     Duplicate vertices are merged and degenerate/duplicate faces dropped when ``clean`` is on,
     because scanned and exported meshes often carry them and surface automata need a connected
-    edge graph. ``normalize`` scales the mesh into a unit box centred at the origin.
+    edge graph. ``normalize`` scales the mesh into a unit box centred at the origin. The file's
+    texture coordinates are kept per face corner in ``mesh__uv`` (seams split UVs, not the
+    surface), so ``mesh.image_field`` and ``surface.image_field`` sample textures through them.
     """
 
     example: ClassVar[tuple[dict, ...]] = ({"rule": "mesh.load", "params": {"path": "spot.obj"}},)
     name: ClassVar[str] = "mesh.load"
     creates: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec(UV_FIELD, "{mesh}", "face", "out",
+                  doc="texture coordinates of each face corner (only when the file has them)"),)
 
     path: str = param(doc="mesh file: absolute, relative to the recipe, or a shipped name (spot.obj)")
     mesh: str = param("mesh", doc="name of the TriMesh to create")
@@ -105,7 +131,9 @@ class LoadMesh(RuleBase):
         if self.normalize:
             v = mesh.vertices
             lo, hi = v.min(axis=0), v.max(axis=0)
-            mesh = TriMesh((v - (lo + hi) / 2) / max(float((hi - lo).max()), 1e-12), mesh.faces)
+            scaled = TriMesh((v - (lo + hi) / 2) / max(float((hi - lo).max()), 1e-12), mesh.faces)
+            scaled.copy_fields_from(mesh, {"vertex": "vertex", "face": "face"})
+            mesh = scaled
         state.add_domain(self.mesh, mesh)
         state.report(f"{self.mesh}.n_faces", mesh.n_faces)
         return True
@@ -115,18 +143,26 @@ def clean_mesh(mesh: TriMesh) -> TriMesh:
     """Weld coincident vertices, drop degenerate and duplicate faces and unused vertices.
 
     trimesh's own cleaning, with tolerances relative to the mesh size (1e-9 of its extent)
-    rather than trimesh's absolute default, so tiny and huge models clean alike.
+    rather than trimesh's absolute default, so tiny and huge models clean alike. Face fields
+    (a file's corner UVs) follow the faces that are kept; vertex fields are dropped.
     """
     v = mesh.vertices
     scale = max(float(np.ptp(v, axis=0).max()), 1e-12)
     tm = mesh.to_trimesh()
     tm.merge_vertices(digits_vertex=int(np.ceil(-np.log10(scale * 1e-9))))
-    tm.update_faces(tm.nondegenerate_faces(height=scale * 1e-9))
-    tm.update_faces(tm.unique_faces())
+    kept = np.nonzero(tm.nondegenerate_faces(height=scale * 1e-9))[0]
+    tm.update_faces(kept)
+    unique = tm.unique_faces()
+    kept = kept[unique]
+    tm.update_faces(unique)
     tm.remove_unreferenced_vertices()
     if len(tm.faces) == 0:
         raise InputError("mesh.load: every face is degenerate")
-    return TriMesh(np.asarray(tm.vertices)[:, : mesh.dim], np.asarray(tm.faces))
+    out = TriMesh(np.asarray(tm.vertices)[:, : mesh.dim], np.asarray(tm.faces))
+    for name, arr, info in mesh.fields():
+        if info.at == "face":
+            out.add_field(name, arr[kept], at="face", units=info.units, doc=info.doc)
+    return out
 
 
 @dataclass(kw_only=True)
