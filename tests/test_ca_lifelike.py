@@ -169,3 +169,67 @@ def test_age_field_and_start_from_a_field():
     np.testing.assert_array_equal(dom["ca__alive"], start)      # period 2
     age = dom["ca__age"]
     assert age[9, 9] == 4 and age[9, 8] == 2 and age[8, 9] == 2 and age.sum() == 4 + 2 * 4
+
+
+# -- birth gated by a per-cell probability field --------------------------------------------
+
+def _stepper(p: np.ndarray | None, shape=(100, 100), seed: int = 11):
+    """A ca.life (Life, random start) on its own Grid, optionally with a birth probability field."""
+    dom = Grid(shape)
+    params = {"density": 0.3}
+    if p is not None:
+        dom.add_field("exposure__birth", p, at="cell")
+        params["birth_field"] = "exposure__birth"
+    rule = LifeLike.from_params(params)
+    st = State(seed=seed)
+    st.add_domain("cells", dom)
+    st.rule_name = rule.name
+    rule.setup(st)
+
+    def step(k: int) -> np.ndarray:
+        st.iteration = k
+        rule.step(st)
+        return np.array(dom["ca__alive"])
+    return dom, step
+
+
+def test_birth_probability_one_is_the_plain_rule_and_zero_allows_no_birth():
+    shape = (100, 100)
+    plain, step_plain = _stepper(None)
+    ones, step_ones = _stepper(np.ones(shape))
+    zeros, step_zeros = _stepper(np.zeros(shape))
+    start = np.array(plain["ca__alive"])
+    np.testing.assert_array_equal(ones["ca__alive"], start)      # the start draws are the same
+    prev = start
+    for k in range(30):
+        a = step_plain(k)
+        np.testing.assert_array_equal(step_ones(k), a)
+        z = step_zeros(k)
+        assert not np.any(z & ~prev)                             # nobody is born ...
+        prev = z
+    assert a.sum() > 500 and prev.sum() < start.sum()            # ... while the plain rule lives on
+
+
+def test_births_happen_with_the_fields_probability_and_only_where_it_is_positive():
+    shape = (100, 100)
+    p = np.full(shape, 0.3)
+    p[:, :50] = 0.0                                               # the west half never comes alive
+    plain, step_plain = _stepper(None)
+    gated, step_gated = _stepper(p)
+    before = np.array(plain["ca__alive"])
+    a, g = step_plain(0), step_gated(0)
+    candidates = a & ~before
+    born = g & ~before
+    np.testing.assert_array_equal(g & before, a & before)        # survival is untouched
+    assert not np.any(born & ~candidates) and not born[:, :50].any()
+    n = int(candidates[:, 50:].sum())
+    assert n > 500
+    assert abs(born.sum() - 0.3 * n) < 4 * np.sqrt(n * 0.3 * 0.7)  # binomial(n, 0.3) within 4 sigma
+    for k in range(1, 40):
+        g_prev, g = g, step_gated(k)
+        assert not np.any((g & ~g_prev)[:, :50])
+
+
+def test_birth_field_out_of_range_is_one_line():
+    with pytest.raises(InputError, match="birth_field 'exposure__birth' must be one value in \\[0, 1\\]"):
+        _stepper(np.full((10, 10), 1.5), shape=(10, 10))

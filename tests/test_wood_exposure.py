@@ -141,3 +141,35 @@ def test_cell_diagram_draws_every_cross_edge_link_once():
                                                                sc.graph.indices[sc.graph.cross])}
         assert len(root.findall(f"{ns}line")) == len(links) > 0
         assert len(root.findall(f"{ns}polygon")) == sc.n_cells + 2
+
+
+def test_exposure_gated_births_make_a_sheltered_underside_lag(shelter):
+    """ca.life with birth_field = exposure__birth: the plate under the roof (no rain, little sun)
+    comes alive less often, so it ages less than the open plate; without the field both alike."""
+    from procgen.ca.lifelike import LifeLike
+    st = _run(Exposure(rain_spread=25.0, birth_floor=0.2), shelter)
+    birth = shelter["exposure__birth"]
+    assert birth.min() >= 0.2 and 0.9 < birth.max() <= 1.0
+    assert st.reports["cells.exposure.birth_mean"] == pytest.approx(birth.mean())
+    c, n = shelter.center3d, shelter.normal
+    plate_top = (np.abs(c[:, 2] - 0.1) < 1e-9) & (n[:, 2] > 1 - 1e-12)
+    under_roof = plate_top & (np.abs(c[:, 0]) < 0.2) & (np.abs(c[:, 1]) < 0.2)
+    open_top = plate_top & ((np.abs(c[:, 0]) > 0.7) | (np.abs(c[:, 1]) > 0.7))
+    assert birth[under_roof].max() < 0.55 < birth[open_top].min()
+    ratio = {}
+    for field in ("", "exposure__birth"):
+        age = np.zeros(shelter.n_cells)
+        for seed in range(3):
+            rule = LifeLike.from_params({"rule": "25/357", "semantics": "table", "density": 0.1,
+                                         "birth_field": field})
+            st = State(seed=seed)
+            st.add_domain("cells", shelter)
+            st.rule_name = rule.name
+            rule.setup(st)
+            for k in range(80):
+                st.iteration = k
+                rule.step(st)
+            age += shelter["ca__age"]
+        ratio[field] = age[under_roof].mean() / age[open_top].mean()
+    assert 0.7 < ratio[""] < 1.3                      # the thesis's CA: shelter makes little difference
+    assert ratio["exposure__birth"] < 0.6 * ratio[""]  # gated births: the sheltered plate lags

@@ -99,3 +99,18 @@ def exposure(points: np.ndarray, normals: np.ndarray, directions: np.ndarray, *,
             lit = lit[vis]
         total[lit] += cos[lit]
     return total / max(len(directions), 1)
+
+
+def birth_probability(sun: np.ndarray, rain: np.ndarray, floor: float) -> np.ndarray:
+    """Per-cell probability that a birth the CA rule calls for happens (ca.life ``birth_field``).
+
+    floor + (1 - floor) * (sun / max sun + rain / max rain) / 2: a cell as sunny and as wet as
+    the object gets follows the plain rule, a fully sheltered cell is born with probability
+    ``floor``.
+    Sun and rain weigh alike, as both drive weathering (UV breaks the lignin down, rain washes
+    the fragments off and feeds the grey fungi; the thesis's 2.2 names sunlight and moisture).
+    """
+    def share(e: np.ndarray) -> np.ndarray:
+        top = float(e.max(initial=0.0))
+        return e / top if top > 0 else np.zeros_like(e)
+    return np.clip(floor + (1.0 - floor) * 0.5 * (share(sun) + share(rain)), 0.0, 1.0)

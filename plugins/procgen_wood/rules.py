@@ -217,7 +217,8 @@ class Exposure(RuleBase):
     E = mean over directions d of max(0, n . d) x visibility along d, visibility by ray casts
     against the mesh (trimesh; Embree via the ``embree`` extra).  Sun: an equinox day's path at
     ``latitude``; rain: a cone of half-angle ``rain_spread`` about ``up``.  Feeds
-    wood.age_colour's ``exposure`` and ``rain_gate``.
+    wood.age_colour's ``exposure`` and ``rain_gate``, and ca.life's ``birth_field`` through
+    ``exposure__birth`` (see :func:`procgen_wood.exposure.birth_probability`).
     """
 
     example: ClassVar[tuple[dict, ...]] = (_ICO, _CELLS, {"rule": "wood.exposure", "params": {"sun_count": 4, "rain_count": 4}})
@@ -227,7 +228,9 @@ class Exposure(RuleBase):
         FieldSpec("exposure__sun", domain="{cells}", at="cell", intent="out",
                   doc="mean max(0, n.d) x visibility over the sun's path, in [0, 1]"),
         FieldSpec("exposure__rain", domain="{cells}", at="cell", intent="out",
-                  doc="mean max(0, n.d) x visibility over the rain cone, in [0, 1]"),)
+                  doc="mean max(0, n.d) x visibility over the rain cone, in [0, 1]"),
+        FieldSpec("exposure__birth", domain="{cells}", at="cell", intent="out", units="1",
+                  doc="birth probability from sun and rain exposure, in [birth_floor, 1]"),)
     cells: str = param("cells", doc="SurfaceCells domain")
     up: list[float] = param([0.0, 0.0, 1.0], doc="the sky direction")
     south: list[float] = param([0.0, -1.0, 0.0], doc="the equator direction (the sun's noon side)")
@@ -237,6 +240,8 @@ class Exposure(RuleBase):
     rain_count: int = param(16, ge=1, le=1000, doc="rain directions")
     occlusion: str = param("rays", choices=("rays", "none"), doc="ray-cast visibility, or none (n.d only)")
     offset: float = param(1e-4, gt=0.0, units="length", doc="ray start offset along the normal")
+    birth_floor: float = param(0.2, ge=0.0, le=1.0,
+                               doc="exposure__birth of a cell no sun or rain reaches (the most exposed get 1)")
 
     def validate(self) -> None:
         try:
@@ -256,6 +261,9 @@ class Exposure(RuleBase):
                            rays=rays, offset=self.offset)
         sc.add_field("exposure__sun", sun, at="cell", doc="sun exposure")
         sc.add_field("exposure__rain", rain, at="cell", doc="rain exposure")
+        birth = ex.birth_probability(sun, rain, self.birth_floor)
+        sc.add_field("exposure__birth", birth, at="cell", units="1", doc="birth probability from exposure")
+        state.report(f"{self.cells}.exposure.birth_mean", float(birth.mean()))
         state.report(f"{self.cells}.exposure.sun_mean", float(sun.mean()))
         state.report(f"{self.cells}.exposure.rain_mean", float(rain.mean()))
         state.report(f"{self.cells}.exposure.rain_sheltered_fraction", float(np.mean(rain == 0)))

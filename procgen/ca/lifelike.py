@@ -14,6 +14,12 @@ tabulates survival at {2, 3, 5, 7}, i.e. C' = 1 if N in B, C' = C if N in S, els
 string is read with ``semantics``: ``literal`` (the standard reading: survive exactly at S) or
 ``table`` (the thesis tables: survive at S and B).  They agree whenever B is inside S (Life).
 Counts above 8 (a cell network may have more links) are never in B or S.
+
+``birth_field`` (off by default) names a cell field p in [0, 1]: a birth the table calls for
+happens only where a uniform draw is below p, so a weathering model can make sheltered cells
+come alive less often (the wood thesis ages every cell alike; its 2.2 names sunlight and
+moisture as the causes). Survival is untouched, and with the field off no random numbers are
+drawn, so results stay those of the plain rule.
 """
 from __future__ import annotations
 
@@ -28,7 +34,7 @@ from ..fields import FieldSpec
 from ..params import param
 from ..state import State
 from .automaton import StateAutomaton
-from .cells import put_cell_values
+from .cells import cell_values, put_cell_values
 from .graph import CellGraph
 
 SEMANTICS = ("literal", "table")
@@ -132,6 +138,8 @@ class LifeLike(StateAutomaton):
     age_mode: str = param("cumulative", choices=AGE_MODES,
                           doc="age: steps alive, consecutive steps alive, or steps since first alive")
     initial_age: int = param(0, ge=0, doc="live cells start with an age uniform in 1..this (0: age 0)")
+    birth_field: str = param("", doc="cell field in [0, 1]: probability that a birth the rule calls for "
+                                     "happens ('' = always: the plain rule)")
 
     @property
     def table(self) -> LifeTable:
@@ -143,6 +151,21 @@ class LifeLike(StateAutomaton):
             self.table
         except InputError as exc:
             raise ValueError(str(exc)) from None
+
+    def field_specs(self) -> list[FieldSpec]:
+        specs = super().field_specs()
+        if self.birth_field:
+            specs.append(FieldSpec(self.birth_field, self.cells, "cell", "in", doc="birth probability"))
+        return specs
+
+    def birth_probability(self, dom) -> np.ndarray:
+        """The ``birth_field`` as a flat (n,) array, checked to lie in [0, 1]."""
+        if self.birth_field not in dom:
+            raise InputError(f"{self.name}: {self.cells!r} has no birth_field {self.birth_field!r}")
+        p = np.asarray(cell_values(dom, self.birth_field), dtype=np.float64).reshape(-1)
+        if p.shape != self._alive.shape or not np.all((p >= 0) & (p <= 1)):
+            raise InputError(f"{self.name}: birth_field {self.birth_field!r} must be one value in [0, 1] per cell")
+        return p
 
     def setup(self, state: State) -> None:
         dom, self._graph, self._present = self.cell_domain(state)
@@ -156,6 +179,8 @@ class LifeLike(StateAutomaton):
             k = int(self._alive.sum())
             self._age[self._alive] = rng.integers(1, self.initial_age + 1, k)
         self._write(dom)
+        if self.birth_field:
+            self.birth_probability(dom)              # a missing or out-of-range field fails now
 
     def _write(self, dom) -> None:
         put_cell_values(dom, self.field, self._alive, doc=f"live cells of {self._bs}")
@@ -164,6 +189,8 @@ class LifeLike(StateAutomaton):
     def step(self, state: State) -> bool:
         dom = state.get(self.cells)
         new = life_step(self._graph, self._alive, self._lut) & self._present
+        if self.birth_field:                         # a birth happens with probability p
+            new &= self._alive | (state.rng().random(len(new)) < self.birth_probability(dom))
         changed = bool(np.any(new != self._alive))
         self._ever |= new
         self._age = next_age(self._age, new, self._ever, self.age_mode)
