@@ -128,7 +128,7 @@ def test_a_raster_bigger_than_memory_is_refused_before_reading(host, tmp_path):
     # an NPY header promising 200000 x 200000 float64 (320 GB) and no data behind it
     with (tmp_path / "huge.npy").open("wb") as fh:
         np.lib.format.write_array_header_1_0(fh, {"descr": "<f8", "fortran_order": False, "shape": (200000, 200000)})
-    with pytest.raises(RecipeError, match="GiB"):
+    with pytest.raises(RecipeError, match=r"huge\.npy: a 200000 x 200000 raster needs about .* GiB"):
         check_recipe({"steps": [{"rule": "grid.load", "params": {"file": "huge.npy"}}]}, host, "r.toml", tmp_path)
 
 

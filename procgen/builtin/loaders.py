@@ -162,6 +162,17 @@ class LoadGrid(RuleBase):
             raise ValueError(f"{info.path.name}: z_min/z_max scale integer images; this file holds heights")
         rows, cols = info.shape
         target_shape(rows, cols, float(cols), float(rows), self.nx, self.ny, True)
+        from ..recipes import memory_limit_bytes
+
+        need, limit = self._bytes(rows, cols), memory_limit_bytes()
+        if need > limit:
+            raise ValueError(f"{info.path.name}: a {cols} x {rows} raster needs about {need / 2**30:.1f} GiB to load, "
+                             f"more than the {limit / 2**30:.1f} GiB this machine can give; crop or downsample "
+                             "the file first (gdal_translate -srcwin / -outsize)")
+
+    def _bytes(self, rows: int, cols: int) -> int:
+        """Reading, filling and resampling: about six float64 copies of the file and of the grid."""
+        return int(8 * 6 * (rows * cols + (self.nx or cols) * (self.ny or rows)))
 
     def _probe(self, base_dir: Path | None) -> RasterInfo:
         try:
@@ -170,9 +181,7 @@ class LoadGrid(RuleBase):
             raise ValueError(str(exc)) from None
 
     def memory_estimate(self) -> int:
-        rows, cols = self._probe(self.recipe_dir).shape
-        out = (self.nx or cols) * (self.ny or rows)
-        return int(8 * 6 * (rows * cols + out))
+        return self._bytes(*self._probe(self.recipe_dir).shape)
 
     def step(self, state: State) -> bool:
         r = read_raster(resolve_data_path(self.file, state.base_dir), self.band)

@@ -7,6 +7,7 @@ mesh has well-shaped triangles inside (surface cells need them), not long fan sl
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
@@ -50,7 +51,7 @@ def winding_numbers(ring: np.ndarray, points: np.ndarray) -> np.ndarray:
     return up.sum(axis=1) - down.sum(axis=1)
 
 
-def outline_polygons(pl: Polylines, which: str, fill: str, spacing: float) -> list:
+def outline_polygons(pl: Polylines, name: str, fill: str, spacing: float) -> list:
     """The region the closed rings of ``pl`` enclose, as shapely Polygons with holes, one per part.
 
     The rings' union of boundaries cuts the plane into faces (shapely's polygonize); a face is
@@ -65,7 +66,7 @@ def outline_polygons(pl: Polylines, which: str, fill: str, spacing: float) -> li
     rings = [r[:-1] if np.allclose(r[0], r[-1]) else r for r in rings]
     rings = [r for r in rings if abs(signed_area(r)) > 0]
     if not rings:
-        raise InputError(f"{which}: the Polylines hold no closed ring with area to use as an outline")
+        raise InputError(f"Polylines {name!r} hold no closed ring with area to use as an outline")
     edges = shapely.union_all([shapely.LineString(np.vstack([r, r[:1]])) for r in rings])
     faces = list(shapely.get_parts(shapely.polygonize(shapely.get_parts(edges))))
     faces = [f for f in faces if f.area > 0]
@@ -76,7 +77,7 @@ def outline_polygons(pl: Polylines, which: str, fill: str, spacing: float) -> li
     region = shapely.simplify(region, 0.02 * spacing, preserve_topology=True)
     parts = [g for g in shapely.get_parts(region) if g.geom_type == "Polygon" and g.area > 0]
     if not parts:
-        raise InputError(f"{which}: the closed rings enclose no area under the {fill!r} fill rule")
+        raise InputError(f"the closed rings of {name!r} enclose no area under the {fill!r} fill rule")
     return sorted(parts, key=lambda g: -g.area)
 
 
@@ -120,7 +121,7 @@ def delaunay(pts: np.ndarray) -> np.ndarray:
             break
         else:
             break
-    raise InputError("mesh.extrude: could not remove the flat triangles of the caps")
+    raise InputError("could not remove the flat triangles of the caps")
 
 
 def _edge_codes(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
@@ -173,7 +174,7 @@ def triangulate_polygon(poly, spacing: float, rng: np.random.Generator,
             drop = np.unique(np.concatenate([np.asarray(n, np.int64) for n in near]))
             inner = np.delete(inner, drop, axis=0)
         rings = new_rings
-    raise InputError(f"mesh.extrude: the outline's boundary could not be kept in the caps after "
+    raise InputError(f"the outline's boundary could not be kept in the caps after "
                      f"{max_rounds} refinements (self-touching outline?)")
 
 
@@ -222,8 +223,22 @@ class Extrude(RuleBase):
     fill: str = param("evenodd", choices=FILL_RULES,
                       doc="SVG fill rule: evenodd (nested rings alternate solid/hole) or nonzero (by direction)")
 
+    def check_chain(self, earlier: list[RuleBase]) -> None:
+        """An SVG read by an earlier lines.load must have a closed path to extrude."""
+        from .lines import LoadLines
+
+        source = [r for r in earlier if self.lines in r.domains_created()]
+        if source and isinstance(source[-1], LoadLines):
+            try:
+                pl = source[-1].read(source[-1].recipe_dir)
+            except InputError:
+                return                      # lines.load reports its own file problems
+            if not pl.closed.any():
+                raise ValueError(f"{Path(source[-1].file).name}: no closed path (an outline ending in Z, "
+                                 "or a rect/circle/polygon) to extrude")
+
     def step(self, state: State) -> bool:
-        parts = outline_polygons(state.get(self.lines, Polylines), self.name, self.fill, self.spacing)
+        parts = outline_polygons(state.get(self.lines, Polylines), self.lines, self.fill, self.spacing)
         rng = state.rng()
         layers = max(1, int(np.ceil(self.depth / self.spacing)))
         verts, faces, offset = [], [], 0
