@@ -25,6 +25,11 @@ from .errors import InputError
 
 ENV = "PROCGEN_ACCELERATE"
 
+MIN_DROPS = 10_000
+"""Drops from which ``accelerate=None`` takes the compiled water step."""
+MIN_CELLS = 100_000
+"""Cells from which ``accelerate=None`` takes the compiled cell-automaton steps."""
+
 
 def kernels(module: str, accelerate: bool | None = None, work: int = 0, min_work: int = 0
             ) -> ModuleType | None:
