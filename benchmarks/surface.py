@@ -19,11 +19,12 @@ publishes its fields every step); with --baseline the previous version of this b
 after it under that interpreter, so both print the same figures in one run.
 
 ``--paths`` runs ca.life (25/357, 100 steps) and ca.voronoi (to full coverage) on the same
-cylinder cells once per path, each in its own process (own peak RSS), one after the other: the
+cylinder cells, and the patina kernel (``--path-steps`` steps on the cup), once per path, each in its own process (own peak RSS), one after the other: the
 numpy step, the compiled step (numba import and kernel load/compile timed apart, on a warm-up
 graph) and the machine's limit, a trivial compiled kernel summing a byte per CSR neighbour
 entry (the gather every cell step needs, nothing else): over every cell in memory order for
-life, over the same frontiers in the same order for Voronoi.  Life is timed per cell-step,
+life and patina, over the same frontiers in the same order for Voronoi.  Life and patina are
+timed per cell-step,
 Voronoi per frontier entry visited (its work is the frontier's, not the domain's).  CPU times
 of each child, fastest of two alternating rounds; both paths' results are hashed.
 """
@@ -89,6 +90,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=950)
     ap.add_argument("--voronoi-baseline", help="checkout whose Voronoi kernel is timed beside this one")
     ap.add_argument("--paths", action="store_true", help="numpy vs compiled vs limit (see above)")
+    ap.add_argument("--path-steps", type=int, default=300, help="patina steps timed by --paths")
     add_arguments(ap)
     _paths.add_arguments(ap)
     args = ap.parse_args()
@@ -98,8 +100,10 @@ def main() -> None:
     if args.paths:
         n = int(250_000 * scale)
         _paths.compare([("life", f"ca.life 25/357 on ~{n:,} cylinder cells, 100 steps (per cell-step)"),
-                        ("voronoi", f"ca.voronoi 24 seeds on ~{n:,} cells to full (per frontier entry)")],
-                       ["--quick"] if args.quick else [])
+                        ("voronoi", f"ca.voronoi 24 seeds on ~{n:,} cells to full (per frontier entry)"),
+                        ("corrode", f"layers.corrode kernel, ~{int(220_000 * scale):,} cup cells, "
+                                    f"{args.path_steps} steps (per cell-step)")],
+                       (["--quick"] if args.quick else []) + ["--path-steps", str(args.path_steps)])
         return
 
     # -- Voronoi: a 48-triangle cylinder (plate 4.1), ~250k cells ----------------------------
@@ -211,7 +215,11 @@ def _cylinder_cells(target: int) -> SurfaceCells:
 
 def path_child(args, scale: float) -> None:
     """One path of ``--paths`` in this process: CPU time per unit of work, as JSON."""
-    g = _cylinder_cells(int(250_000 * scale)).graph
+    if args.part == "corrode":
+        cv, cf = cup(sections=20, rings=5)
+        g = SurfaceCells.from_mesh(cv, cf, target_cells=int(220_000 * scale)).graph
+    else:
+        g = _cylinder_cells(int(250_000 * scale)).graph
     clock = time.process_time
     if args.path == "limit":
         from numba import njit
@@ -226,7 +234,7 @@ def path_child(args, scale: float) -> None:
 
         x = (np.random.default_rng(3).random(g.n_cells) < 0.5).astype(np.uint8)
         out = np.empty(g.n_cells, np.uint8)
-        if args.part == "life":            # every cell, in memory order
+        if args.part in ("life", "corrode"):   # every cell, in memory order
             sets = [np.arange(g.n_cells)] * 20
         else:                              # the frontiers the growth visits, in its order
             grow = VoronoiGrowth(g, place_seeds(g.n_cells, 24, np.random.default_rng(1)), accelerate=True)
@@ -239,7 +247,7 @@ def path_child(args, scale: float) -> None:
             gather(g.indptr, g.indices, cells, x, out)
         t = clock() - t0
         entries = sum(int(np.sum(g.degree[c])) for c in sets)
-        _paths.report(seconds=t / (len(sets) * g.n_cells) if args.part == "life" else t / entries,
+        _paths.report(seconds=t / entries if args.part == "voronoi" else t / (len(sets) * g.n_cells),
                       entries_per_cell=round(g.indices.size / g.n_cells, 2),
                       bytes_per_cell=round((g.indices.nbytes + g.indptr.nbytes) / g.n_cells + 2))
         return
@@ -251,7 +259,29 @@ def path_child(args, scale: float) -> None:
         life_step(small, np.zeros(small.n_cells, bool), parse_rule("B3/S23").lut(), accelerate=True)
         VoronoiGrowth(small, place_seeds(small.n_cells, 2, np.random.default_rng(0)), accelerate=True
                       ).step(np.random.default_rng(0))
+        st = cz.CorrosionState(status=np.ones(small.n_cells, np.int8), consumable=np.ones((small.n_cells, 1)),
+                               product=np.zeros(small.n_cells), age=np.zeros(small.n_cells, np.int32),
+                               strong=np.zeros(small.n_cells, bool))
+        cz.corrosion_step(small, st, Corrode(), np.random.default_rng(0),
+                          weights=cz.direction_weights(cz.gaussian_matrix(1.0)), accelerate=True)
         fig["warmup_s"] = round(time.perf_counter() - t0, 2)
+    if args.part == "corrode":
+        n = g.n_cells
+        rng = np.random.default_rng(2)
+        st = cz.CorrosionState(status=np.zeros(n, np.int8), consumable=np.ones((n, 1)),
+                               product=np.zeros(n), age=np.zeros(n, np.int32),
+                               strong=cz.strong_mask(n, 0.3, rng))
+        st.status[rng.integers(n)] = cz.CORRODED
+        prm = Corrode()
+        weights = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
+        t0 = clock()
+        for k in range(args.path_steps):
+            cz.corrosion_step(g, st, prm, np.random.default_rng(k), weights=weights, accelerate=accelerate)
+        t = clock() - t0
+        digest = hashlib.sha256(st.status.tobytes() + st.consumable.tobytes() + st.product.tobytes())
+        fig.update(hash=digest.hexdigest()[:16], coverage=round(float(np.mean(st.status != cz.NORMAL)), 3))
+        _paths.report(seconds=t / (args.path_steps * n), **fig)
+        return
     if args.part == "life":
         lut = parse_rule("25/357", "table").lut()
         alive = np.random.default_rng(3).random(g.n_cells) < 0.05
