@@ -10,16 +10,28 @@ same cells is timed in the same process, with the label agreement.
     python benchmarks/surface.py --voronoi-baseline ../main   # also time the Voronoi kernel of
                                             # another checkout (before it moved into procgen.ca)
     python benchmarks/surface.py --quick --baseline /path/to/venv/bin/python   # + previous code
+    python benchmarks/surface.py --paths    # numpy vs compiled (procgen.ca.kernels) vs limit
 
 Voronoi runs as the core's generic ``ca.voronoi`` kernel (procgen.ca.propagation) on the cells'
 CellGraph; ``ca.life`` (25/357, table reading) is timed on the same cells. The patina part
 times the attack/defence kernel alone and the whole ``layers.corrode`` rule (which also
 publishes its fields every step); with --baseline the previous version of this benchmark runs
 after it under that interpreter, so both print the same figures in one run.
+
+``--paths`` runs ca.life (25/357, 100 steps) and ca.voronoi (to full coverage) on the same
+cylinder cells, and the patina kernel (``--path-steps`` steps on the cup), once per path, each in its own process (own peak RSS), one after the other: the
+numpy step, the compiled step (numba import and kernel load/compile timed apart, on a warm-up
+graph) and the machine's limit, a trivial compiled kernel summing a byte per CSR neighbour
+entry (the gather every cell step needs, nothing else): over every cell in memory order for
+life and patina, over the same frontiers in the same order for Voronoi.  Life and patina are
+timed per cell-step,
+Voronoi per frontier entry visited (its work is the frontier's, not the domain's).  CPU times
+of each child, fastest of two alternating rounds; both paths' results are hashed.
 """
 from __future__ import annotations
 
 import argparse
+import hashlib
 import importlib.util
 import sys
 import time
@@ -28,6 +40,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+import _paths
 from _baseline import add_arguments, run_previous
 from procgen import State
 from procgen_layers import corrosion as cz
@@ -36,6 +49,7 @@ from procgen_layers.rules import Corrode, cell_stack_colors
 from procgen_layers.stack import put_thickness, store_table
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.primitives import cup
+from procgen.ca.graph import grid_graph
 from procgen.ca.lifelike import life_step, parse_rule
 from procgen.ca.propagation import VoronoiGrowth, place_seeds
 
@@ -75,9 +89,22 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--steps", type=int, default=950)
     ap.add_argument("--voronoi-baseline", help="checkout whose Voronoi kernel is timed beside this one")
+    ap.add_argument("--paths", action="store_true", help="numpy vs compiled vs limit (see above)")
+    ap.add_argument("--path-steps", type=int, default=300, help="patina steps timed by --paths")
     add_arguments(ap)
+    _paths.add_arguments(ap)
     args = ap.parse_args()
     scale = 0.1 if args.quick else 1.0
+    if args.path:
+        return path_child(args, scale)
+    if args.paths:
+        n = int(250_000 * scale)
+        _paths.compare([("life", f"ca.life 25/357 on ~{n:,} cylinder cells, 100 steps (per cell-step)"),
+                        ("voronoi", f"ca.voronoi 24 seeds on ~{n:,} cells to full (per frontier entry)"),
+                        ("corrode", f"layers.corrode kernel, ~{int(220_000 * scale):,} cup cells, "
+                                    f"{args.path_steps} steps (per cell-step)")],
+                       (["--quick"] if args.quick else []) + ["--path-steps", str(args.path_steps)])
+        return
 
     # -- Voronoi: a 48-triangle cylinder (plate 4.1), ~250k cells ----------------------------
     cyl = trimesh.creation.cylinder(radius=1.0, height=2.2, sections=12)
@@ -179,6 +206,109 @@ def main() -> None:
     print(f"peak memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:,.0f} MB")
     run_previous("surface.py", args.baseline, args.baseline_rev,
                  ["--steps", str(args.steps)] + (["--quick"] if args.quick else []))
+
+
+def _cylinder_cells(target: int) -> SurfaceCells:
+    cyl = trimesh.creation.cylinder(radius=1.0, height=2.2, sections=12)
+    return SurfaceCells.from_mesh(np.asarray(cyl.vertices), np.asarray(cyl.faces), target_cells=target)
+
+
+def path_child(args, scale: float) -> None:
+    """One path of ``--paths`` in this process: CPU time per unit of work, as JSON."""
+    if args.part == "corrode":
+        cv, cf = cup(sections=20, rings=5)
+        g = SurfaceCells.from_mesh(cv, cf, target_cells=int(220_000 * scale)).graph
+    else:
+        g = _cylinder_cells(int(250_000 * scale)).graph
+    clock = time.process_time
+    if args.path == "limit":
+        from numba import njit
+
+        @njit(cache=True, nogil=True)
+        def gather(indptr, indices, cells, x, out):
+            for c in cells:
+                v = 0
+                for e in range(indptr[c], indptr[c + 1]):
+                    v += x[indices[e]]
+                out[c] = v
+
+        x = (np.random.default_rng(3).random(g.n_cells) < 0.5).astype(np.uint8)
+        out = np.empty(g.n_cells, np.uint8)
+        if args.part in ("life", "corrode"):   # every cell, in memory order
+            sets = [np.arange(g.n_cells)] * 20
+        else:                              # the frontiers the growth visits, in its order
+            grow = VoronoiGrowth(g, place_seeds(g.n_cells, 24, np.random.default_rng(1)), accelerate=True)
+            rng, sets = np.random.default_rng(7), [grow.frontier]
+            while grow.step(rng):
+                sets.append(grow.frontier)
+        gather(g.indptr, g.indices, sets[0], x, out)
+        t0 = clock()
+        for cells in sets:
+            gather(g.indptr, g.indices, cells, x, out)
+        t = clock() - t0
+        entries = sum(int(np.sum(g.degree[c])) for c in sets)
+        _paths.report(seconds=t / entries if args.part == "voronoi" else t / (len(sets) * g.n_cells),
+                      entries_per_cell=round(g.indices.size / g.n_cells, 2),
+                      bytes_per_cell=round((g.indices.nbytes + g.indptr.nbytes) / g.n_cells + 2))
+        return
+    accelerate = args.path == "compiled"
+    fig = {}
+    if accelerate:
+        small = grid_graph(40, 40)
+        t0 = time.perf_counter()
+        life_step(small, np.zeros(small.n_cells, bool), parse_rule("B3/S23").lut(), accelerate=True)
+        VoronoiGrowth(small, place_seeds(small.n_cells, 2, np.random.default_rng(0)), accelerate=True
+                      ).step(np.random.default_rng(0))
+        st = cz.CorrosionState(status=np.ones(small.n_cells, np.int8), consumable=np.ones((small.n_cells, 1)),
+                               product=np.zeros(small.n_cells), age=np.zeros(small.n_cells, np.int32),
+                               strong=np.zeros(small.n_cells, bool))
+        cz.corrosion_step(small, st, Corrode(), np.random.default_rng(0),
+                          weights=cz.direction_weights(cz.gaussian_matrix(1.0)), accelerate=True)
+        fig["warmup_s"] = round(time.perf_counter() - t0, 2)
+    if args.part == "corrode":
+        n = g.n_cells
+        rng = np.random.default_rng(2)
+        st = cz.CorrosionState(status=np.zeros(n, np.int8), consumable=np.ones((n, 1)),
+                               product=np.zeros(n), age=np.zeros(n, np.int32),
+                               strong=cz.strong_mask(n, 0.3, rng))
+        st.status[rng.integers(n)] = cz.CORRODED
+        prm = Corrode()
+        weights = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
+        t0 = clock()
+        for k in range(args.path_steps):
+            cz.corrosion_step(g, st, prm, np.random.default_rng(k), weights=weights, accelerate=accelerate)
+        t = clock() - t0
+        digest = hashlib.sha256(st.status.tobytes() + st.consumable.tobytes() + st.product.tobytes())
+        fig.update(hash=digest.hexdigest()[:16], coverage=round(float(np.mean(st.status != cz.NORMAL)), 3))
+        _paths.report(seconds=t / (args.path_steps * n), **fig)
+        return
+    if args.part == "life":
+        lut = parse_rule("25/357", "table").lut()
+        alive = np.random.default_rng(3).random(g.n_cells) < 0.05
+        out = np.empty(g.n_cells, bool)
+        t0 = clock()
+        for _ in range(100):
+            nxt = life_step(g, alive, lut, out=out, accelerate=accelerate)
+            alive, out = nxt, alive            # double buffer on the compiled path
+        t = clock() - t0
+        fig.update(hash=hashlib.sha256(alive.tobytes()).hexdigest()[:16], live=round(float(alive.mean()), 3))
+        _paths.report(seconds=t / (100 * g.n_cells), **fig)
+        return
+    g.incoming                                 # built once per graph on both paths, not timed
+    labels = place_seeds(g.n_cells, 24, np.random.default_rng(1))
+    grow = VoronoiGrowth(g, labels, accelerate=accelerate)
+    rng = np.random.default_rng(7)
+    entries = steps = 0
+    t0 = clock()
+    while True:
+        entries += int(np.sum(g.degree[grow.frontier]))
+        if not grow.step(rng):
+            break
+        steps += 1
+    t = clock() - t0
+    fig.update(hash=hashlib.sha256(grow.labels.tobytes()).hexdigest()[:16], steps=steps,
+               frontier_entries=entries, seconds_total=round(t, 2))
+    _paths.report(seconds=t / entries, **fig)
 
 
 if __name__ == "__main__":

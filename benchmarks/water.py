@@ -1,10 +1,22 @@
-"""Benchmark: batched water drops vs the one-drop-at-a-time loop of the same rule.
+"""Benchmark: batched water drops vs the one-drop-at-a-time loop of the same rule, and the
+numpy step vs the compiled (numba) step vs a trivial kernel with the same memory traffic.
 
 50,000 drops on a 512x512 three-layer surface (absorbent stone, soil patches, patina spots;
 absorption, erosion, deposition, evaporation all active) for 100 steps, then the Python loop
 reference (procgen_water.reference) on a subsample of drops from the same start state, in the
 same process.  Prints drop-steps per second for both, their ratio, and absolute times.
-Usage: python benchmarks/water.py [--steps 100] [--drops 50000] [--size 512]
+
+``--paths`` instead runs the same 100 steps once per path, each in its own process (own peak
+RSS), one after the other: the numpy step (``accelerate=False``), the compiled step
+(procgen_water.kernels; numba import and kernel load/compile are timed apart, on a warm-up step)
+and the machine's limit: a trivial compiled kernel doing the step's memory traffic (one pass
+over the grid's base/thickness/held writing the height; per drop, in drop order, its position,
+the 4x4 cells of its gradient stencil and its cell's layers read and written back) with no
+arithmetic to speak of.  Times are CPU times of each child (the machine is shared: CPU time
+survives load better than wall time), after a warm-up.  The table gives time per
+drop-step, the ratio, and the compiled path's distance from the limit; both paths' final
+thickness/held/drops are hashed to show they agree bit for bit.
+Usage: python benchmarks/water.py [--steps 100] [--drops 50000] [--size 512] [--paths]
                                   [--baseline /work/venv-main/bin/python]
 With --baseline, the previous version of this benchmark runs after it under that interpreter
 (the previous code), so the two sets of figures print side by side from one run.
@@ -13,11 +25,13 @@ from __future__ import annotations
 
 import argparse
 import copy
+import hashlib
 import resource
 import time
 
 import numpy as np
 
+import _paths
 from _baseline import add_arguments, run_previous
 from procgen_water import particles as P
 from procgen_water.layers import base_surface, layer_thickness, parse_layers
@@ -48,26 +62,34 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--sub", type=int, default=500, help="drops in the loop baseline")
     ap.add_argument("--sub-steps", type=int, default=3)
+    ap.add_argument("--paths", action="store_true", help="numpy vs compiled vs limit (see above)")
     add_arguments(ap)
+    _paths.add_arguments(ap)
     a = ap.parse_args()
+    if a.path:
+        return path_child(a)
+    if a.paths:
+        _paths.compare([("drops", f"drops {a.drops:,} on {a.size}^2 x 3 layers, {a.steps} steps (per drop-step)")],
+                       ["--steps", str(a.steps), "--drops", str(a.drops), "--size", str(a.size)])
+        return
     s, d, p = build(a.size, a.drops)
     s0, d0 = copy.deepcopy(s), copy.deepcopy(d)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     drop_steps = 0
     for _ in range(a.steps):
         drop_steps += len(d)
         d = P.step(s, d, p)
-    t_batch = time.perf_counter() - t0
+    t_batch = time.process_time() - t0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024       # Linux: KiB
     wl = P.water_ledger(s, d)
     # loop baseline: the same start state, a subsample of the drops
     sub = d0.take(np.arange(0, len(d0), max(1, len(d0) // a.sub))[: a.sub])
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     loop_steps = 0
     for _ in range(a.sub_steps):
         loop_steps += len(sub)
         sub = step_loop(s0, sub, p)
-    t_loop = time.perf_counter() - t0
+    t_loop = time.process_time() - t0
     rb, rl = drop_steps / t_batch, loop_steps / t_loop
     print(f"grid {a.size}x{a.size}, 3 layers, {a.drops} drops, {a.steps} steps")
     print(f"batch : {drop_steps} drop-steps in {t_batch:.2f} s -> {rb:,.0f} drop-steps/s "
@@ -82,6 +104,76 @@ def main() -> None:
                  ["--steps", str(a.steps), "--drops", str(a.drops), "--size", str(a.size), "--sub", str(a.sub),
                   "--sub-steps", str(a.sub_steps)])
     raise SystemExit(0 if ok else 1)
+
+
+def path_child(a) -> None:
+    """One path of ``--paths`` in this process: time per drop-step and figures, as JSON."""
+    s, d, p = build(a.size, a.drops)
+    n0, fig = len(d), {}
+    if a.path == "limit":
+        from procgen_water.kernels import bytes_per_cell
+        run = _limit_kernel()
+        h = np.empty(s.ncell)
+        run(s.base, s.thickness, s.held, h, d.pos, s.shape[0], s.shape[1])        # compile
+        t0 = time.process_time()
+        for _ in range(a.steps):
+            run(s.base, s.thickness, s.held, h, d.pos, s.shape[0], s.shape[1])
+        t = time.process_time() - t0
+        _paths.report(seconds=t / (a.steps * n0), bytes_per_cell_scratch=bytes_per_cell(s.n_layers))
+        return
+    accelerate = a.path == "compiled"
+    if accelerate:
+        ws, wd, wp = build(32, 100, seed=2)
+        t0 = time.process_time()
+        P.step(ws, wd, wp, accelerate=True)               # numba import + kernel load (or compile)
+        fig["warmup_s"] = round(time.process_time() - t0, 2)
+    t0 = time.process_time()
+    drop_steps = 0
+    for _ in range(a.steps):
+        drop_steps += len(d)
+        d = P.step(s, d, p, accelerate=accelerate)
+    t = time.process_time() - t0
+    digest = hashlib.sha256()
+    for arr in (s.thickness, s.held, s.deposit, s.evaporated, d.pos, d.volume, d.sediment):
+        digest.update(np.ascontiguousarray(arr).tobytes())
+    fig.update(hash=digest.hexdigest()[:16], drop_steps=drop_steps, ms_per_step=round(t / a.steps * 1e3, 1),
+               water_ledger_error=float(f"{P.water_ledger(s, d)['error']:.2e}"),
+               bytes_per_drop=sum(x.itemsize * (x.size // max(len(d), 1)) for x in
+                                  (d.pos, d.vel, d.volume, d.sediment, d.kind, d.moving, d.age)))
+    if accelerate:
+        work = s.__dict__["_drop_kernel_work"]
+        fig["scratch_bytes_per_drop"] = round((work.nbytes - work.grid_bytes) / work.cap)
+        fig["scratch_bytes_per_cell"] = round(work.grid_bytes / s.ncell)
+    _paths.report(seconds=t / drop_steps, **fig)
+
+
+def _limit_kernel():
+    """The trivial kernel of ``--paths``: the step's memory traffic, next to no arithmetic."""
+    from numba import njit
+
+    @njit(cache=True, nogil=True)
+    def run(base, thickness, held, h, pos, ny, nx):
+        L = thickness.shape[1]
+        for c in range(ny * nx):                 # stream: base + layers + held -> height
+            v = base[c]
+            for l in range(L):
+                v += thickness[c, l] + held[c, l]
+            h[c] = v
+        for i in range(pos.shape[0]):            # per drop: its state and 4x4 cells around it
+            ix = min(max(int(pos[i, 0]) - 1, 0), nx - 4)
+            iy = min(max(int(pos[i, 1]) - 1, 0), ny - 4)
+            v = 0.0
+            for dy in range(4):
+                for dx in range(4):
+                    v += h[(iy + dy) * nx + ix + dx]
+            c = (iy + 1) * nx + ix + 1
+            for l in range(L):                   # the cell's layers: read and written back
+                thickness[c, l] += 0.0 * v
+                held[c, l] += 0.0 * v
+            pos[i, 0] += 1e-300 * v
+        return None
+
+    return run
 
 
 if __name__ == "__main__":

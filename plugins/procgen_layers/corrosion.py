@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procgen.accel import MIN_CELLS, kernels
 from procgen.ca.graph import MOORE, CellGraph, weighted_top_k
 
 if TYPE_CHECKING:
@@ -78,7 +79,7 @@ class StepStats:
 
 def corrosion_step(graph: CellGraph, st: CorrosionState, prm: "Corrode", rng: np.random.Generator,
                    *, weights: np.ndarray, edge_logw: np.ndarray | None = None,
-                   blocked: np.ndarray | None = None) -> StepStats:
+                   blocked: np.ndarray | None = None, accelerate: bool | None = None) -> StepStats:
     """One synchronous step of every cell; ``st`` is updated in place.
 
     ``prm`` is the ``layers.corrode`` rule: its parameters are the model's numbers (declared
@@ -87,7 +88,12 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm: "Corrode", rng: np
     ``edge_logw``: extra log-weight per CSR entry added to the Gaussian direction weight (the
     2.5-D surface tilts attacks downhill). ``blocked``: normal cells that can be neither attacked
     nor seeded (metal under another layer). A normal cell with no consumable left is blocked too.
+    ``accelerate``: the numba kernel of procgen_layers.corrosion_kernels (same result), see
+    procgen.accel.
     """
+    kern = kernels("procgen_layers.corrosion_kernels", accelerate, graph.n_cells, MIN_CELLS)
+    if kern is not None:
+        return kern.corrosion_step(graph, st, prm, rng, weights=weights, edge_logw=edge_logw, blocked=blocked)
     n = graph.n_cells
     out = StepStats()
     status0 = st.status.copy()

@@ -50,6 +50,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procgen.accel import MIN_DROPS, kernels
 from procgen.errors import InputError
 
 if TYPE_CHECKING:                      # the drop model's numbers are the water.drops rule's parameters
@@ -532,8 +533,12 @@ def evaporate(s: Surface, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray) -> No
     s.evaporated[wet] += total
 
 
-def step(s: Surface, d: Drops, p: "WaterDrops") -> Drops:
-    """One time step: move, interact, evaporate; record moving-drop visits in ``path``."""
+def step(s: Surface, d: Drops, p: "WaterDrops", accelerate: bool | None = None) -> Drops:
+    """One time step: move, interact, evaporate; record moving-drop visits in ``path``.
+    ``accelerate``: the numba kernels of procgen_water.kernels (same result), see procgen.accel."""
+    kern = kernels("procgen_water.kernels", accelerate, len(d), MIN_DROPS)
+    if kern is not None:
+        return kern.step(s, d, p)
     release_excess(s)
     h = s.height()
     gx, gy = surface_gradient(s, h)

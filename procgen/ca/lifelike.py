@@ -29,6 +29,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..accel import MIN_CELLS, kernels
 from ..errors import InputError
 from ..fields import FieldSpec
 from ..params import param
@@ -92,8 +93,14 @@ def parse_rule(text: str, semantics: str = "literal") -> LifeTable:
     return LifeTable(born, survive | born if semantics == "table" else survive)
 
 
-def life_step(graph: CellGraph, alive: np.ndarray, lut: np.ndarray) -> np.ndarray:
-    """One synchronous generation: the next state from the previous one only (a new array)."""
+def life_step(graph: CellGraph, alive: np.ndarray, lut: np.ndarray, out: np.ndarray | None = None,
+              accelerate: bool | None = None) -> np.ndarray:
+    """One synchronous generation: the next state from the previous one only (a new array).
+    ``accelerate``: the numba kernel of procgen.ca.kernels (same result, written into ``out``
+    when given), see procgen.accel."""
+    kern = kernels("procgen.ca.kernels", accelerate, graph.n_cells, MIN_CELLS)
+    if kern is not None:
+        return kern.life_step(graph, alive, lut, out)
     n = graph.count(alive)
     return lut[np.minimum(n, len(lut) - 1), alive.astype(np.intp)]
 

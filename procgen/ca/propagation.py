@@ -15,6 +15,7 @@ from typing import ClassVar
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..accel import MIN_CELLS, kernels
 from ..errors import InputError
 from ..fields import FieldSpec, check_field_name
 from ..params import param
@@ -45,6 +46,7 @@ class VoronoiGrowth:
     graph: CellGraph
     labels: np.ndarray
     p_diagonal: float = P_DIAGONAL
+    accelerate: bool | None = None     # numba kernel of procgen.ca.kernels (same labels), see procgen.accel
 
     def __post_init__(self) -> None:
         self.frontier = self._frontier_of(np.nonzero(self.labels > 0)[0])
@@ -60,6 +62,9 @@ class VoronoiGrowth:
 
     def step(self, rng: np.random.Generator) -> int:
         """One synchronous step; returns the number of newly labelled cells."""
+        kern = kernels("procgen.ca.kernels", self.accelerate, self.graph.n_cells, MIN_CELLS)
+        if kern is not None:
+            return kern.voronoi_step(self, rng)
         rows_cells = self.frontier
         if len(rows_cells) == 0:
             return 0

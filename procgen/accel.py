@@ -1,0 +1,58 @@
+"""The one switch between numpy reference paths and their compiled (numba) kernels.
+
+A per-step hot path (water drops, cell-automaton stepping, snaxel events) is written once in
+numpy - the reference, and the only path without the ``fast`` extra - and once more as numba
+kernels in a module of its own that imports numba at top level.  Such a module is imported only
+through :func:`kernels`, so importing procgen or a plugin never loads numba
+(tests/test_install.py).  Both paths give the same numbers (each kernel module says how exactly)
+and CI runs the tests of both.
+
+``accelerate``: True = the compiled kernels, or an InputError naming the missing extra;
+False = numpy; None = the environment switch ``PROCGEN_ACCELERATE`` (``1``: like True, ``0``:
+like False), else compiled when numba is installed and the workload is at least the path's
+``min_work`` (importing numba and loading cached kernels costs ~0.5 s per process, so small
+runs stay on numpy).
+"""
+from __future__ import annotations
+
+import functools
+import importlib
+import importlib.util
+import os
+from types import ModuleType
+
+from .errors import InputError
+
+ENV = "PROCGEN_ACCELERATE"
+
+MIN_DROPS = 10_000
+"""Drops from which ``accelerate=None`` takes the compiled water step."""
+MIN_CELLS = 100_000
+"""Cells from which ``accelerate=None`` takes the compiled cell-automaton steps."""
+
+
+def kernels(module: str, accelerate: bool | None = None, work: int = 0, min_work: int = 0
+            ) -> ModuleType | None:
+    """The kernel module ``module`` when the switch selects the compiled path, else None."""
+    if accelerate is None:
+        env = os.environ.get(ENV, "").strip().lower()
+        if env in ("0", "false", "off", "no"):
+            return None
+        if env in ("1", "true", "on", "yes"):
+            accelerate = True
+        elif work < min_work:
+            return None
+    if accelerate is False:
+        return None
+    mod = _load(module)
+    if mod is None and accelerate:
+        raise InputError(f"accelerate = true needs numba (the 'fast' extra: pip install "
+                         f"'procgen-rules[fast]'), which is not installed ({module})")
+    return mod
+
+
+@functools.cache
+def _load(module: str) -> ModuleType | None:
+    if importlib.util.find_spec("numba") is None:
+        return None
+    return importlib.import_module(module)
