@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from procgen import FieldSpec, InputError, RuleBase, State, param
-from procgen.ca.cells import CELL_DOMAIN, cell_graph, cell_values, n_cells, put_cell_values
+from procgen.ca.cells import CELL_DOMAIN, cell_graph, cell_size, cell_values, n_cells, put_cell_values
 from procgen.ca.coverage import CoverageLog
 from procgen.ca.graph import MOORE
 from procgen.exchange.preview import camera_basis
@@ -24,7 +24,7 @@ from procgen.noise import value_noise_3d
 from . import corrosion as cz
 from .light import scale_opacity, shade_stack
 from .materials import MaterialTable, preset, split_layer_specs
-from .stack import (THICKNESS, cell_areas, cell_centres, cell_size, load_table, noisy_layer,
+from .stack import (THICKNESS, cell_areas, cell_centres, load_table, noisy_layer,
                     put_thickness, store_table, table_field_specs)
 
 CELLS = "{cells}"
@@ -163,6 +163,8 @@ class Corrode(RuleBase):
     strong_high: bool = param(True, doc="strong_field: high values are strong (False: low values)")
     noise_scale: float | None = param(None, gt=0.0, units="length", doc="surface noise feature size")
     coverage: str = param("coverage", doc="Polylines domain receiving the coverage curve")
+    baseline: str = param("", doc="report key of an earlier step's steps to 95 % (e.g. cells.voronoi."
+                                  "steps_to_95): also report saturation_ratio = our steps to 95 % / it")
 
     def field_specs(self) -> list[FieldSpec]:
         specs = super().field_specs()
@@ -334,6 +336,13 @@ class Corrode(RuleBase):
         state.report(f"{key}.corroded_fraction", float(np.mean(st.status >= cz.CORRODED)))
         state.report(f"{key}.max_attacks_per_cell", self._stats["max_attacks_per_cell"])
         state.report(f"{key}.attack_limit_violations", self._stats["attack_limit_violations"])
+        if self.baseline:
+            # thesis 4.2.4 / Fig. 4.9: patina saturates about 9x later than the Voronoi diagram
+            base, ours = state.reports.get(self.baseline), self._log.steps_to(95)
+            if not base:
+                raise InputError(f"{self.name}: baseline {self.baseline!r} is not a step count reported "
+                                 f"by an earlier step")
+            state.report(f"{key}.saturation_ratio", None if ours is None else ours / base)
 
 
 def parse_stack_table(specs: Any) -> MaterialTable:
