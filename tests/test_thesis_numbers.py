@@ -41,6 +41,7 @@ def test_plate_3_2_disc_completion(host, mode):
     assert rep["cells.voronoi.completion_r70"] > rep["cells.voronoi.completion_r10"]
 
 
+@pytest.mark.slow
 def test_plate_4_1_steps_to_full_coverage(host):
     """Thesis 4.1.4 / Figure 4.4: 250,000 cells on a 50-triangle object covered in 110 steps.
 
@@ -54,3 +55,22 @@ def test_plate_4_1_steps_to_full_coverage(host):
     full, p95 = rep["cells.voronoi.steps_to_full"], rep["cells.voronoi.steps_to_95"]
     assert abs(full - 110) <= 0.25 * 110
     assert p95 < full
+
+
+@pytest.mark.slow
+def test_plate_4_2_patina_saturates_about_nine_times_later_than_voronoi(host):
+    """Thesis 4.2.4 / Figure 4.9: on ~220,000 cells the patina saturates "about 9 times" later
+    than the systematic Voronoi propagation (950 vs 110 steps: 8.6), and its seeds "have very
+    strong propagation difficulties at the beginning".
+
+    Both times are steps to 95 % (our patina leaves its strongest cells sound, so it never reaches
+    100 %), the Voronoi diagram being plate 4.1's 24 seeds on the same cup cells.  The thesis's
+    ratio compares two different runs whose seed counts it does not give; the Voronoi time alone
+    moves by about 15 % with the seed draw: accepted within a third of 9.  The hard start: the
+    patina spends a larger share of its saturation time below 5 % than the Voronoi diagram does.
+    (The full-size recipe: about a minute; a smaller cup changes the ratio, since new seeds come
+    per cell per step.)
+    """
+    rep = reports(host, "meshes/plate-4-2")
+    assert abs(rep["cells.corrosion.saturation_ratio"] - 9.0) <= 3.0
+    assert rep["cells.corrosion.start_share"] > 1.5 * rep["cells.voronoi.start_share"]
