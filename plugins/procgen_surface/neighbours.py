@@ -286,7 +286,8 @@ def unfolded_distances(layout: CellLayout, faces: np.ndarray, topo: EdgeTopology
     Exact on the development of the seed's triangle and its edge neighbours: a neighbour
     triangle is unfolded about the shared edge into the seed triangle's plane (the same rigid
     map as the ``unfold`` cross-edge links), so the shortest path is the straight segment when it
-    crosses the shared edge and goes around the nearer edge end otherwise.  Cells on triangles
+    crosses the shared edge (or stays on the seed's side of it: PART-IN centres) and goes around
+    the nearer edge end otherwise.  Cells on triangles
     further away get NaN: the ideal circle of plate 3.2 (thesis 3.3.3) lies on two triangles.
     """
     f0 = int(layout.face[cell])
@@ -305,8 +306,10 @@ def unfolded_distances(layout: CellLayout, faces: np.ndarray, topo: EdgeTopology
         a, b = layout.frames.corners2d[f0, k], layout.frames.corners2d[f0, (k + 1) % 3]
         pa, pb = np.broadcast_to(p, q.shape), np.broadcast_to(a, q.shape)
         bb = np.broadcast_to(b, q.shape)
-        crosses = (orient2d(pa, q, pb) * orient2d(pa, q, bb) <= 0) & \
-                  (orient2d(pb, bb, pa) * orient2d(pb, bb, q) <= 0)
+        # straight unless the segment crosses the edge's line outside the edge (then it would
+        # leave the two triangles); a PART-IN centre on the seed's side needs no crossing at all
+        same_side = orient2d(pb, bb, pa) * orient2d(pb, bb, q) > 0
+        crosses = same_side | (orient2d(pa, q, pb) * orient2d(pa, q, bb) <= 0)
         straight = np.linalg.norm(q - p, axis=1)
         around = np.minimum(np.linalg.norm(a - p) + np.linalg.norm(q - a, axis=1),
                             np.linalg.norm(b - p) + np.linalg.norm(q - b, axis=1))
