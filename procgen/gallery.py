@@ -25,7 +25,7 @@ from .recipes import list_recipes, parse_toml, rules_missing
 if TYPE_CHECKING:
     from .plugins import PluginHost
 
-ENTRY_KEYS = ("recipe", "seeds", "title", "figure", "caption", "quick", "set", "id")
+ENTRY_KEYS = ("recipe", "seeds", "title", "figure", "caption", "quick", "set", "id", "thesis")
 
 
 @dataclass
@@ -39,6 +39,7 @@ class Entry:
     set: dict[str, Any] = field(default_factory=dict)
     slug: str = ""
     source: str = ""
+    thesis: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -77,9 +78,14 @@ def _entry_from(raw: Any, where: str, index: int) -> Entry:
     for key in ("quick", "set"):
         if not isinstance(raw.get(key, {}), dict):
             raise RecipeError(f"{where}: {key} must be a table of KEY = VALUE overrides")
+    thesis = raw.get("thesis", {})
+    if not isinstance(thesis, dict) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                               for v in thesis.values()):
+        raise RecipeError(f"{where}: thesis must be a table of REPORT KEY = the thesis's number")
     slug = raw.get("id") or raw["recipe"].replace("/", "-")
     return Entry(raw["recipe"], list(seeds), str(raw.get("title", raw["recipe"])), str(raw.get("figure", "")),
-                 str(raw.get("caption", "")), dict(raw.get("quick", {})), dict(raw.get("set", {})), slug, where)
+                 str(raw.get("caption", "")), dict(raw.get("quick", {})), dict(raw.get("set", {})), slug, where,
+                 {str(k): float(v) for k, v in thesis.items()})
 
 
 def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path | None = None) -> list[Entry]:
@@ -179,6 +185,47 @@ def _params_html(run_json: Path) -> str:
     return f'<details><summary>parameters</summary><ul class="params">{"".join(rows)}</ul></details>'
 
 
+#: how a report reads, by the end of its key: (unit, factor); fractions are shown as percentages
+_REPORT_UNITS = (("_pct", "%", 1.0), ("completion_r", "%", 100.0), ("_fraction", "%", 100.0),
+                 ("start_share", "%", 100.0), ("saturation_ratio", "x", 1.0), ("steps_to_", "steps", 1.0),
+                 ("n_cells", "cells", 1.0), ("n_faces", "triangles", 1.0))
+
+
+def report_unit(key: str) -> tuple[str, float]:
+    """(unit, factor) a report is read in, from its key (e.g. a completion 0.962 -> 96.2 %)."""
+    leaf = key.rsplit(".", 1)[-1]
+    for end, unit, factor in _REPORT_UNITS:
+        if end in leaf:
+            return unit, factor
+    return "", 1.0
+
+
+def format_number(value: Any, unit: str = "", factor: float = 1.0) -> str:
+    """A number as people read it: integers whole (thousands separated), others to 3
+    significant figures; ``None`` as a dash; the unit after a thin space ("96.2 %")."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return str(value)
+    v = value * factor
+    if abs(v) < 1e15 and float(v).is_integer():
+        text = f"{int(v):,}"
+    elif 1000 <= abs(v) < 1e15:
+        text = f"{int(float(f'{v:.3g}')):,}"           # 3 significant figures, no exponent
+    else:
+        text = f"{v:.3g}"
+    return f"{text} {unit}".rstrip() if unit not in ("x",) else f"{text}x"
+
+
+def report_text(key: str, value: Any, thesis: dict[str, float]) -> str:
+    """``key = measured`` with the thesis's figure beside it when the entry names one."""
+    unit, factor = report_unit(key)
+    text = f"{key} = {format_number(value, unit, factor)}"
+    if key in thesis:
+        text += f" (thesis: {format_number(thesis[key], unit, factor)})"
+    return text
+
+
 def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick: bool) -> None:
     """The contact sheet: a card per entry+seed with thumbnails, figure, caption and links."""
     by = {(r.key, r.seed): r for r in results}
@@ -196,7 +243,9 @@ def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick
                                f'alt="{html.escape(f)}"></a>' for f in _thumbs(r.files))
                 links = " ".join(f'<a href="{base}/{html.escape(f)}">{html.escape(f)}</a>'
                                  for f in r.files if not f.startswith("frames/"))
-                rep = ", ".join(f"{k} = {v}" for k, v in sorted(r.reports.items()) if not isinstance(v, (dict, list)))
+                reps = {k: v for k, v in r.reports.items() if not isinstance(v, (dict, list))}
+                first = [k for k in e.thesis if k in reps]          # the thesis's numbers lead
+                rep = ", ".join(report_text(k, reps[k], e.thesis) for k in first + sorted(set(reps) - set(first)))
                 body = (f'<div class="thumbs">{imgs}</div><p class="files">{links}</p>'
                         f'<p class="rep">{html.escape(rep)}{" &middot; " if rep else ""}'
                         f'{r.seconds:.1f} s</p>{_params_html(out / base / "run.json")}')

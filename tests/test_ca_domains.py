@@ -111,7 +111,7 @@ def test_voronoi_and_majority_agree_on_grid_and_flat_square():
     sb = run(VoronoiPropagation.from_params(dict(pa, seed_points=[[0.3, 0.2, 0.0]])), sc, 100)
     # Chebyshev distance 12 from lattice square (4, 3) to (15, 15); the coverage log's entry 0
     # is the empty surface and entry 1 the seeds, so full coverage is entry 12 + 1
-    assert sa.reports["cells.voronoi.steps_to_100pct"] == sb.reports["cells.voronoi.steps_to_100pct"] == 13
+    assert sa.reports["cells.voronoi.steps_to_full"] == sb.reports["cells.voronoi.steps_to_full"] == 13
     np.testing.assert_array_equal(sa.domains["coverage"].points[:, 0], sb.domains["coverage"].points[:, 0])
     # labels of several seeds, then a plurality vote (deterministic) on both
     start = np.random.default_rng(2).integers(1, 4, N * N)

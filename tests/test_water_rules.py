@@ -13,9 +13,10 @@ from procgen import RecipeError, run
 from procgen.recipes import load_recipe
 
 SMALL = [
-    "steps.0.params.nx=40", "steps.0.params.ny=40", "steps.1.params.drops=3000",
-    "steps.1.iterations=40", "steps.1.frames.every=20",
+    "steps.surface.params.nx=40", "steps.surface.params.ny=40", "steps.rain.params.drops=3000",
+    "steps.rain.frames.every=4", *(f"steps.{r}.iterations=8" for r in ("rain", "rain-2", "rain-3", "rain-4", "rain-5")),
 ]
+STAGES = ("a_initial", "b_44_steps", "c_88_steps", "d_132_steps", "e_176_steps", "f_220_steps")
 
 
 def _run(host, tmp_path, name, overrides, seed=1):
@@ -27,11 +28,16 @@ def test_plate_2_8_writes_readable_files_and_balanced_ledgers(host, tmp_path):
     res = _run(host, tmp_path, "terrain/plate-2-8", SMALL)
     info = json.loads((tmp_path / "run.json").read_text())
     rep = info["reports"]
-    err = rep["step1.water.max_relative_ledger_error"]
-    assert err["water"] < 1e-12 and err["sediment"] < 1e-12
-    wl = rep["step1.water.water_ledger"]
-    assert wl["emitted"] == pytest.approx(3000.0)
-    assert wl["drops"] + wl["held"] + wl["evaporated"] + wl["drained"] == pytest.approx(3000.0)
+    rain_steps = sorted(k.split(".")[0] for k in rep if k.endswith(".water.water_ledger"))
+    assert len(rain_steps) == 5                     # the rain in five stages, (b) to (f)
+    for st in rain_steps:                           # each stage's ledgers balance, same 3000 drops
+        err = rep[f"{st}.water.max_relative_ledger_error"]
+        assert err["water"] < 1e-12 and err["sediment"] < 1e-12
+        wl = rep[f"{st}.water.water_ledger"]
+        assert wl["emitted"] == pytest.approx(3000.0)
+        assert wl["drops"] + wl["held"] + wl["evaporated"] + wl["drained"] == pytest.approx(3000.0)
+    stages = [np.asarray(Image.open(tmp_path / f"{s}.png")) for s in STAGES]   # plate 2.8 (a)-(f)
+    assert all(not np.array_equal(a, b) for a, b in zip(stages, stages[1:]))
     # 16-bit heightmap + sidecar, float NPY, colour PNG, OBJ with vertex colours, frames
     im = Image.open(tmp_path / "height.png")
     assert im.mode in ("I;16", "I;16B", "I") and im.size == (40, 40)
@@ -41,12 +47,12 @@ def test_plate_2_8_writes_readable_files_and_balanced_ledgers(host, tmp_path):
     h = np.load(tmp_path / "height_f64.npy")
     assert np.allclose(z, h, atol=(side["z_max"] - side["z_min"]) / 65535)
     assert np.load(tmp_path / "thickness_f64.npy").shape == (40, 40, 2)
-    assert Image.open(tmp_path / "color.png").mode == "RGB"
+    assert Image.open(tmp_path / "f_220_steps.png").mode == "RGB"
     import trimesh
     mesh = trimesh.load(tmp_path / "surface.obj", process=False)
     assert len(mesh.vertices) == 1600 and mesh.visual.kind == "vertex"
     assert len({tuple(c) for c in mesh.visual.vertex_colors[:, :3]}) > 20
-    assert any(f.startswith("frames/step1/") for f in res.files)
+    assert any(f.startswith("frames/step2/") for f in res.files)
     for layer in (0, 1):
         assert (tmp_path / f"layer{layer}_{['stone', 'patina'][layer]}_top.png").exists()
 
@@ -55,7 +61,7 @@ def test_same_seed_same_bytes(host, tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     _run(host, a, "terrain/plate-2-8", SMALL)
     _run(host, b, "terrain/plate-2-8", SMALL)
-    for f in ("height_f64.npy", "color.png", "surface.obj", "thickness_f64.npy"):
+    for f in ("height_f64.npy", "f_220_steps.png", "surface.obj", "thickness_f64.npy"):
         assert (a / f).read_bytes() == (b / f).read_bytes(), f
     c = tmp_path / "c"
     _run(host, c, "terrain/plate-2-8", SMALL, seed=2)

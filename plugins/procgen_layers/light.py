@@ -98,19 +98,26 @@ def through_layers_loop(lit_colors: np.ndarray, thickness: np.ndarray, opacity: 
 
 def lit_layers(normals: np.ndarray, table: MaterialTable, *, light: np.ndarray,
                eye: np.ndarray = (0.0, 0.0, 1.0), specular_color: np.ndarray | None = None,
-               per_layer: bool = False) -> np.ndarray:
+               per_layer: bool = False, extra_lights: tuple[tuple[np.ndarray, float], ...] = ()) -> np.ndarray:
     """(..., L, 3) Phong colour of every layer, bottom first.
 
     normals: (..., 3) shared by every layer, or with ``per_layer`` (..., L, 3): one top-surface
-    normal per layer (a 2.5-D stack whose layer tops differ).
+    normal per layer (a 2.5-D stack whose layer tops differ).  ``extra_lights``: (direction,
+    intensity) pairs whose diffuse and specular terms add to the main light's (the ambient term
+    counts once): the two light sources of plate D-13(a).
     """
     col = table.array("color")
     n = np.asarray(normals, dtype=float)
     out = []
     for li, m in enumerate(table):                     # a handful of layers: one pass each
         nl = n[..., li, :] if per_layer else n
-        out.append(phong(nl, col[li], light=light, eye=eye, ambient=m.ambient, diffuse=m.diffuse,
-                         specular=m.specular, exponent=m.exponent, specular_color=specular_color))
+        c = phong(nl, col[li], light=light, eye=eye, ambient=m.ambient, diffuse=m.diffuse,
+                  specular=m.specular, exponent=m.exponent, specular_color=specular_color)
+        for direction, intensity in extra_lights:      # a few lights: one pass each
+            c = c + phong(nl, col[li], light=direction, eye=eye, ambient=0.0, diffuse=m.diffuse,
+                          specular=m.specular, exponent=m.exponent, specular_color=specular_color,
+                          light_color=intensity)
+        out.append(c)
     return np.stack(out, axis=-2)
 
 
@@ -120,7 +127,8 @@ def shade_stack(normals: np.ndarray, thickness: np.ndarray, table: MaterialTable
                 wet_darkening: float = 0.0, film: np.ndarray | None = None,
                 film_normals: np.ndarray | None = None, film_material: Material | None = None,
                 hole: np.ndarray | None = None,
-                background: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+                background: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                extra_lights: tuple[tuple[np.ndarray, float], ...] = (), through: bool = True) -> np.ndarray:
     """RGB in [0, 1] (..., 3) of elements with a bottom-first stack ``thickness`` (..., L).
 
     Each layer is lit first (Phong, or its bare colour with ``lit=False``: the albedo a viewer
@@ -129,12 +137,13 @@ def shade_stack(normals: np.ndarray, thickness: np.ndarray, table: MaterialTable
     saturation held / (capacity * thickness * cell_area) (the thesis's wet look, plate 2.4).
     ``film`` (...,): a liquid film of ``film_material`` on top (e.g. standing drops, plate 2.5),
     lit with ``film_normals`` and white highlights.  Elements with no optical depth, and
-    ``hole`` ones, show ``background``.
+    ``hole`` ones, show ``background``.  ``through=False`` skips the light-through-layers model:
+    each element shows its topmost non-empty layer, as the thesis's plate 2.1 was rendered.
     """
     t = np.asarray(thickness, dtype=float)
     if lit:
         lc = lit_layers(normals, table, light=light, eye=eye, per_layer=per_layer,
-                        specular_color=np.ones(3) if white_highlights else None)
+                        specular_color=np.ones(3) if white_highlights else None, extra_lights=extra_lights)
     else:
         col = table.array("color")
         lc = np.broadcast_to(col, t.shape + (3,))
@@ -152,7 +161,13 @@ def shade_stack(normals: np.ndarray, thickness: np.ndarray, table: MaterialTable
         lit_td = np.concatenate([wl[..., None, :], lit_td], axis=-2)
         t_td = np.concatenate([np.asarray(film, float)[..., None], t_td], axis=-1)
         o_td = np.concatenate([[m.opacity], o_td])
-    c = through_layers(lit_td, t_td, o_td, empty=np.asarray(background, float))
+    if through:
+        c = through_layers(lit_td, t_td, o_td, empty=np.asarray(background, float))
+    else:
+        present = t_td > 0
+        top = np.argmax(present, axis=-1)[..., None, None]
+        c = np.take_along_axis(lit_td, top, axis=-2)[..., 0, :]
+        c = np.where(present.any(axis=-1)[..., None], c, np.asarray(background, float))
     if hole is not None:
         c[hole] = background
     return np.clip(c, 0.0, 1.0)

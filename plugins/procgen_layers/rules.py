@@ -12,7 +12,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from procgen import FieldSpec, InputError, RuleBase, State, param
-from procgen.ca.cells import CELL_DOMAIN, cell_graph, cell_values, n_cells, put_cell_values
+from procgen.ca.cells import CELL_DOMAIN, cell_graph, cell_size, cell_values, n_cells, put_cell_values
+from procgen.ca.cells import cell_centres as domain_cell_centres
 from procgen.ca.coverage import CoverageLog
 from procgen.ca.graph import MOORE
 from procgen.exchange.preview import camera_basis
@@ -24,7 +25,7 @@ from procgen.noise import value_noise_3d
 from . import corrosion as cz
 from .light import scale_opacity, shade_stack
 from .materials import MaterialTable, preset, split_layer_specs
-from .stack import (THICKNESS, cell_areas, cell_centres, cell_size, load_table, noisy_layer,
+from .stack import (THICKNESS, cell_areas, cell_centres, load_table, noisy_layer,
                     put_thickness, store_table, table_field_specs)
 
 CELLS = "{cells}"
@@ -163,6 +164,8 @@ class Corrode(RuleBase):
     strong_high: bool = param(True, doc="strong_field: high values are strong (False: low values)")
     noise_scale: float | None = param(None, gt=0.0, units="length", doc="surface noise feature size")
     coverage: str = param("coverage", doc="Polylines domain receiving the coverage curve")
+    baseline: str = param("", doc="report key of an earlier step's steps to 95 % (e.g. cells.voronoi."
+                                  "steps_to_95): also report saturation_ratio = our steps to 95 % / it")
 
     def field_specs(self) -> list[FieldSpec]:
         specs = super().field_specs()
@@ -334,6 +337,67 @@ class Corrode(RuleBase):
         state.report(f"{key}.corroded_fraction", float(np.mean(st.status >= cz.CORRODED)))
         state.report(f"{key}.max_attacks_per_cell", self._stats["max_attacks_per_cell"])
         state.report(f"{key}.attack_limit_violations", self._stats["attack_limit_violations"])
+        if self.baseline:
+            # thesis 4.2.4 / Fig. 4.9: patina saturates about 9x later than the Voronoi diagram
+            base, ours = state.reports.get(self.baseline), self._log.steps_to(95)
+            if not base:
+                raise InputError(f"{self.name}: baseline {self.baseline!r} is not a step count reported "
+                                 f"by an earlier step")
+            state.report(f"{key}.saturation_ratio", None if ours is None else ours / base)
+
+
+@dataclass(kw_only=True)
+class Tool(RuleBase):
+    """A virtual tool swept along a path cuts a groove into the layer stack (plate D-13(b)).
+
+    The thesis's "sharp concrete texture manufactured by a virtual tool (making the two lines
+    with a right angle)": every cell whose centre lies within ``radius`` of the ``path``
+    polyline loses ``depth`` of thickness, taken from the top layer down, with a flat (square
+    tool) or round (ball tool, depth * sqrt(1 - (d/r)^2)) cross-section.  Cutting is geometric,
+    not a CA: one sweep per iteration (more iterations cut deeper).
+    """
+
+    name: ClassVar[str] = "layers.tool"
+    example: ClassVar[tuple[dict, ...]] = _STACK + (
+        {"rule": "layers.tool", "params": {"path": [[2.0, 2.0], [20.0, 2.0], [20.0, 16.0]], "radius": 1.5,
+                                           "depth": 0.4}},)
+    uses: ClassVar[dict[str, str]] = {CELLS: CELL_DOMAIN}
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec(THICKNESS, CELLS, "cell", "inout", units="length", doc="stack cut along the path"),)
+    cells: str = param("cells", doc="cell domain carrying a layer stack")
+    path: list[list[float]] = param([[0.0, 0.0], [1.0, 0.0]],
+                                    doc="tool path: points in the domain's coordinates (2-D grid, 3-D surface)")
+    radius: float = param(0.02, gt=0.0, units="length", doc="half width of the groove")
+    depth: float = param(0.5, gt=0.0, units="length", doc="thickness removed on the path per sweep")
+    profile: str = param("flat", choices=("flat", "round"), doc="groove cross-section: square or ball tool")
+
+    def validate(self) -> None:
+        if len(self.path) < 2 or len({len(p) for p in self.path}) != 1 or len(self.path[0]) not in (2, 3):
+            raise ValueError("path must be at least two points of 2 or 3 coordinates")
+
+    def step(self, state: State) -> bool:
+        dom = state.get(self.cells, CELL_DOMAIN)
+        table = load_table(dom, self.name)
+        centres = domain_cell_centres(dom)          # (x, y) on a Grid, 3-D on surface cells
+        pts = np.asarray(self.path, dtype=float)
+        if pts.shape[1] != centres.shape[1]:
+            raise InputError(f"{self.name}: path points need {centres.shape[1]} coordinates on a "
+                             f"{dom.kind}, got {pts.shape[1]}")
+        d = np.full(len(centres), np.inf)
+        for a, b in zip(pts[:-1], pts[1:]):            # a few segments: one pass each
+            ab = b - a
+            u = np.clip((centres - a) @ ab / max(float(ab @ ab), 1e-300), 0.0, 1.0)
+            d = np.minimum(d, np.linalg.norm(centres - a - u[:, None] * ab, axis=1))
+        x = np.clip(d / self.radius, 0.0, 1.0)
+        cut = self.depth * np.where(d <= self.radius, 1.0 if self.profile == "flat" else np.sqrt(1 - x * x), 0.0)
+        t = np.array(cell_values(dom, THICKNESS), dtype=float)
+        before = t.sum(axis=1)
+        above = np.cumsum(t[:, ::-1], axis=1)[:, ::-1] - t      # thickness lying over each layer
+        t = np.clip(t - np.clip(cut[:, None] - above, 0.0, None), 0.0, None)
+        put_thickness(dom, t, table)
+        state.report(f"{self.cells}.tool.removed_volume",
+                     float(np.sum((before - t.sum(axis=1)) * cell_areas(dom).ravel())))
+        return bool(np.any(cut > 0))
 
 
 def parse_stack_table(specs: Any) -> MaterialTable:
@@ -369,6 +433,10 @@ class Shade(RuleBase):
     lit: bool = param(True, doc="Phong per layer (True) or the unlit albedo for texture baking (False)")
     light_azimuth: float = param(135.0, ge=-360.0, le=360.0, units="deg", doc="light azimuth from +x")
     light_elevation: float = param(50.0, gt=0.0, le=90.0, units="deg", doc="light elevation")
+    extra_lights: list[list[float]] = param([], doc="more lights, each [azimuth deg, elevation deg, "
+                                                    "intensity] (plate D-13(a): two light sources)")
+    through: bool = param(True, doc="light through the layers (False: the top non-empty layer only, "
+                                    "as the thesis rendered plate 2.1)")
     eye_azimuth: float = param(0.0, ge=-360.0, le=360.0, units="deg", doc="eye azimuth from +x")
     eye_elevation: float = param(90.0, gt=0.0, le=90.0, units="deg", doc="eye elevation (90: straight above)")
     white_highlights: bool = param(False, doc="white specular highlights (False: tinted by the material, as the thesis)")
@@ -386,6 +454,9 @@ class Shade(RuleBase):
     def validate(self) -> None:
         if len(self.background) != 3:
             raise ValueError("background must be 3 numbers")
+        for lt in self.extra_lights:
+            if len(lt) != 3 or not (0 < lt[1] <= 90) or lt[2] < 0:
+                raise ValueError("extra_lights: each light is [azimuth, elevation in (0, 90], intensity >= 0]")
         check_field_name(self.field)
         for f in (self.wet_field, self.film_field):
             if f:
@@ -424,7 +495,9 @@ class Shade(RuleBase):
                           white_highlights=self.white_highlights, per_layer=isinstance(dom, Grid), held=held,
                           cell_area=cell_areas(dom).reshape(shape), wet_darkening=self.wet_darkening,
                           film=film, film_normals=film_normals, film_material=preset(self.film_material),
-                          hole=None if alive is None else ~alive, background=tuple(self.background))
+                          hole=None if alive is None else ~alive, background=tuple(self.background),
+                          extra_lights=tuple((light_direction(a, e), i) for a, e, i in self.extra_lights),
+                          through=self.through)
         dom.add_field(self.field, rgb, at="cell", units="rgb", doc="colour seen through the layers")
         return True
 
@@ -445,4 +518,4 @@ def cell_stack_colors(dom: Any, *, lit: bool, light: np.ndarray, eye: np.ndarray
                        white_highlights=True)
 
 
-RULES = [StackLayers, Corrode, Shade]
+RULES = [StackLayers, Corrode, Shade, Tool]

@@ -88,14 +88,6 @@ def cell_centres(domain: Any) -> np.ndarray:
     return np.asarray(c, dtype=float)
 
 
-def cell_size(domain: Any) -> float:
-    """Side of one cell (a Grid's spacing, the surface cells' size)."""
-    size = getattr(domain, "spacing", None) or getattr(domain, "size", None)
-    if not size:
-        raise InputError(f"a {domain.kind} has no cell size")
-    return float(size)
-
-
 def smooth_on_graph(values: np.ndarray, graph: CellGraph, iterations: int) -> np.ndarray:
     """Jacobi smoothing: x <- (x + mean of neighbours) / 2, ``iterations`` times."""
     x = np.asarray(values, dtype=float).copy()

@@ -114,6 +114,12 @@ class SurfaceCells(Domain):
         topo = edge_topology(self.faces, self.valid)
         return orientation_errors(self.layout, self.faces, topo)
 
+    def surface_distances(self, cell: int) -> np.ndarray:
+        """(n,) distance over the surface from cell ``cell`` to every cell (NaN beyond the
+        seed triangle's edge neighbours; see :func:`.neighbours.unfolded_distances`)."""
+        from .neighbours import edge_topology, unfolded_distances
+        return unfolded_distances(self.layout, self.faces, edge_topology(self.faces, self.valid), cell)
+
     def alive(self) -> np.ndarray:
         """Cells that still exist (``cell__alive`` if a rule cut holes, else all)."""
         return np.asarray(self["cell__alive"], bool) if "cell__alive" in self else \

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import io
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -111,19 +112,25 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 azimuth: float = 35.0, elevation: float = 25.0, up: str = "z",
                 light_azimuth: float | None = None, light_elevation: float = 50.0,
                 cells_per_segment: float = 4.0, exaggerate: float = 0.02,
-                max_triangles: int = 400_000, background: list[int] | None = None) -> bytes:
+                max_triangles: int = 400_000, background: list[int] | None = None,
+                antialias: int = 1, relight: bool = True) -> bytes:
     """Preview PNG from a fixed camera, coloured per pixel by the cell under it.
 
     ``color_by='layers'`` is the thesis rendering: Phong per layer (eye = the camera) then light
     through the layers, per cell; holes cut out.  ``voronoi``/``status``/``cells``/a field name:
-    flat cell colours with two-sided Lambert shading of the (displaced) facets.
+    flat cell colours with two-sided Lambert shading of the (displaced) facets, or as they are
+    with ``relight = false`` (a field already lit, e.g. by ``layers.shade`` with its own lights).
+    ``antialias = k``: the thesis's fake anti-aliasing (App. B 3, plate B.1): k x k renders with
+    the camera moved by less than one pixel (so no point leaves its pixel, no blur) averaged,
+    which softens the staircase of the cell borders.
     """
-    from .export_mesh import cell_under
-    from procgen.exchange.preview import encode_png, face_id_buffer, pixel_barycentric, project
+    from procgen.exchange.preview import encode_image, project
 
     sc = _check(domain, "surface_png")
     if up not in ("x", "y", "z"):
         raise InputError(f"surface_png: up must be x, y or z, got {up!r}")
+    if not 1 <= int(antialias) <= 8:
+        raise InputError(f"surface_png: antialias must be 1..8 (renders per axis), got {antialias!r}")
     eye, right, sup = camera_basis(azimuth, elevation, up)
     if color_by == "layers":
         if light_azimuth is None:
@@ -132,9 +139,12 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
         else:
             light = light_direction(light_azimuth, light_elevation)
         rgb = cell_colors(sc, "layers", lit=True, light=light, eye=eye)
-        lambert = False
+        lambert = None
     else:
-        rgb, lambert = _colors(sc, color_by), True
+        rgb = _colors(sc, color_by)
+        lambert = 0.45 * right + 0.6 * sup + 0.66 * eye if relight else None
+        if lambert is not None:
+            lambert /= np.linalg.norm(lambert)
     alive = sc.alive()
     if not alive.all():             # holes: triangles about one cell wide, so the far side shows
         cells_per_segment = min(cells_per_segment, 1.0)
@@ -142,6 +152,21 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     mesh: DisplacedMesh = displaced_mesh(sc, _heights(sc), rgb, alive, None, level=level,
                                          exaggerate=exaggerate)
     proj = project(mesh.vertices, (width, height), azimuth=azimuth, elevation=elevation, up=up)
+    bg = tuple(int(c) for c in (background or (255, 255, 255)))
+    k = int(antialias)
+    ss = proj.width / width                                  # supersampled pixels per pixel
+    shifts = ((np.arange(k) + 0.5) / k - 0.5) * ss if k > 1 else np.zeros(1)
+    img = sum(_render_pass(sc, mesh, replace(proj, px=proj.px + dx, py=proj.py + dy), rgb, alive, lambert, bg)
+              for dx in shifts for dy in shifts)             # k^2 renders (k <= 8)
+    return encode_image(img / len(shifts) ** 2, (width, height))
+
+
+def _render_pass(sc: SurfaceCells, mesh: DisplacedMesh, proj: Any, rgb: np.ndarray, alive: np.ndarray,
+                 lambert: np.ndarray | None, bg: tuple[int, int, int]) -> np.ndarray:
+    """(H, W, 3) image of one camera position: each pixel the colour of the cell under it."""
+    from .export_mesh import cell_under
+    from procgen.exchange.preview import composite, face_id_buffer, pixel_barycentric
+
     ids = face_id_buffer(proj, mesh.faces)
     rows, cols, tri, bc = pixel_barycentric(proj, mesh.faces, ids)
     xy = np.einsum("nk,nkd->nd", bc, mesh.corner_xy[tri])
@@ -149,13 +174,10 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     cell = np.where(cell >= 0, cell, mesh.face_cell[tri])
     pix = rgb[cell]
     hole = ~alive[cell]
-    if lambert:                      # two-sided Lambert with the cell's rounded normal
-        ld = 0.45 * right + 0.6 * sup + 0.66 * eye
-        ld /= np.linalg.norm(ld)
-        pix = pix * (0.35 + 0.65 * np.abs(sc.normal[cell] @ ld))[:, None]
+    if lambert is not None:          # two-sided Lambert with the cell's rounded normal
+        pix = pix * (0.35 + 0.65 * np.abs(sc.normal[cell] @ lambert))[:, None]
     ids[rows[hole], cols[hole]] = -1
-    bg = tuple(int(c) for c in (background or (255, 255, 255)))
-    return encode_png(np.clip(pix[~hole], 0, 1), ids, (width, height), bg)
+    return composite(np.clip(pix[~hole], 0, 1), ids, bg)
 
 
 def coverage_png(domain: Any, *, stem: str = "", provenance: dict | None = None,

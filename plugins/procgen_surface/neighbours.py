@@ -22,6 +22,8 @@ import numpy as np
 from procgen.domains.trimesh_domain import edge_table
 from procgen.errors import InputError
 
+from procgen.geometry import orient2d
+
 from .geometry import CellLayout, edge_half_planes
 
 from procgen.ca.graph import MOORE, CellGraph  # the shared Moore convention and graph
@@ -275,3 +277,41 @@ def orientation_errors(layout: CellLayout, faces: np.ndarray, topo: EdgeTopology
 def analytic_mean_edge_error() -> float:
     """(4/pi) * integral_0^{pi/4} (1 - cos a) da = 1 - 2*sqrt(2)/pi (thesis: about 9.9 %)."""
     return 1.0 - 2.0 * np.sqrt(2.0) / np.pi
+
+
+def unfolded_distances(layout: CellLayout, faces: np.ndarray, topo: EdgeTopology,
+                       cell: int) -> np.ndarray:
+    """(n,) surface distance from cell ``cell``'s centre to every cell centre, by unfolding.
+
+    Exact on the development of the seed's triangle and its edge neighbours: a neighbour
+    triangle is unfolded about the shared edge into the seed triangle's plane (the same rigid
+    map as the ``unfold`` cross-edge links), so the shortest path is the straight segment when it
+    crosses the shared edge (or stays on the seed's side of it: PART-IN centres) and goes around
+    the nearer edge end otherwise.  Cells on triangles
+    further away get NaN: the ideal circle of plate 3.2 (thesis 3.3.3) lies on two triangles.
+    """
+    f0 = int(layout.face[cell])
+    p = layout.center2d[cell]
+    out = np.full(layout.n_cells, np.nan)
+    on0 = layout.face == f0
+    out[on0] = np.linalg.norm(layout.center2d[on0] - p, axis=1)
+    for k in range(3):                            # the seed triangle's three edges
+        g = _other_face(topo, np.array([f0]), np.array([k]))[0]
+        if g < 0:
+            continue
+        cells = np.nonzero(layout.face == g)[0]
+        kg = int(np.argmax([_other_face(topo, np.array([g]), np.array([j]))[0] == f0 for j in range(3)]))
+        _, q = _unfold(layout, topo, faces, np.full(len(cells), g), layout.center2d[cells],
+                       np.full(len(cells), kg))
+        a, b = layout.frames.corners2d[f0, k], layout.frames.corners2d[f0, (k + 1) % 3]
+        pa, pb = np.broadcast_to(p, q.shape), np.broadcast_to(a, q.shape)
+        bb = np.broadcast_to(b, q.shape)
+        # straight unless the segment crosses the edge's line outside the edge (then it would
+        # leave the two triangles); a PART-IN centre on the seed's side needs no crossing at all
+        same_side = orient2d(pb, bb, pa) * orient2d(pb, bb, q) > 0
+        crosses = same_side | (orient2d(pa, q, pb) * orient2d(pa, q, bb) <= 0)
+        straight = np.linalg.norm(q - p, axis=1)
+        around = np.minimum(np.linalg.norm(a - p) + np.linalg.norm(q - a, axis=1),
+                            np.linalg.norm(b - p) + np.linalg.norm(q - b, axis=1))
+        out[cells] = np.where(crosses, straight, around)
+    return out

@@ -92,6 +92,28 @@ def cell_centres(domain: Any) -> np.ndarray:
     return np.asarray(fn(), dtype=float)
 
 
+def cell_size(domain: Any) -> float:
+    """Side of one cell (a Grid's spacing, the surface cells' size)."""
+    size = getattr(domain, "spacing", None) or getattr(domain, "size", None)
+    if not size:
+        raise InputError(f"a {getattr(domain, 'kind', type(domain).__name__)} has no cell size")
+    return float(size)
+
+
+def cell_distances(domain: Any, cell: int) -> np.ndarray:
+    """(n,) distance from cell ``cell``'s centre to every cell centre, over the surface.
+
+    A domain that lies on a folded surface provides ``surface_distances(cell)`` (the surface
+    cells unfold the triangles; NaN where it does not measure); otherwise the straight-line
+    distance between centres, exact on a flat raster.
+    """
+    fn = getattr(domain, "surface_distances", None)
+    if callable(fn):
+        return np.asarray(fn(int(cell)), dtype=float)
+    c = cell_centres(domain)
+    return np.linalg.norm(c - c[int(cell)], axis=1)
+
+
 def cell_values(domain: Any, name: str) -> np.ndarray:
     """Field ``name`` as a flat ``(n_cells, ...)`` array (a view where the layout allows)."""
     a = domain[name]

@@ -2,7 +2,8 @@
 
 Gobron's 3DSCA thesis plots these for every propagation (Figures 4.4 and 4.9): the cumulative
 percentage of cells reached and the percentage reached in each step; the step counts to 50 %,
-95 % and 100 % are the numbers the thesis quotes (plate 4.1: full coverage in about 110 steps).
+95 % and 100 % are the numbers the thesis quotes (plate 4.1: full coverage in about 110 steps),
+and a single seed's disc is judged by its completion against the ideal circle (plate 3.2).
 """
 from __future__ import annotations
 
@@ -29,9 +30,30 @@ class CoverageLog:
         return Polylines.from_list([np.column_stack([t, self.cumulative]),
                                     np.column_stack([t, self.per_step])], closed=False)
 
+    def steps_to(self, percent: float) -> int | None:
+        """First step at which the cumulative coverage reaches ``percent`` (None: never)."""
+        hit = np.nonzero(np.asarray(self.cumulative) >= percent - 1e-9)[0]
+        return int(hit[0]) if len(hit) else None
+
     def report(self, state: State, prefix: str) -> None:
-        c = np.asarray(self.cumulative)
-        for q in (50, 95, 100):
-            hit = np.nonzero(c >= q - 1e-9)[0]
-            state.report(f"{prefix}.steps_to_{q}pct", int(hit[0]) if len(hit) else None)
-        state.report(f"{prefix}.final_coverage_pct", float(c[-1]))
+        """``{prefix}.steps_to_5`` / ``_50`` / ``_95`` / ``_full``, the final % and the
+        ``start_share``: steps to 5 % over steps to 95 %, how long the seeds struggle before the
+        curve takes off (thesis 4.2.4: corrosion "very strong propagation difficulties at the
+        beginning", where the Voronoi curve starts at once)."""
+        steps = {name: self.steps_to(q) for name, q in (("5", 5), ("50", 50), ("95", 95), ("full", 100))}
+        for name, n in steps.items():
+            state.report(f"{prefix}.steps_to_{name}", n)
+        state.report(f"{prefix}.final_coverage_pct", float(self.cumulative[-1]))
+        if steps["5"] is not None and steps["95"]:
+            state.report(f"{prefix}.start_share", steps["5"] / steps["95"])
+
+
+def disc_completion(reached: np.ndarray, distance: np.ndarray, radius: float) -> float:
+    """Completion of a disc grown from one seed: the fraction of the cells inside the ideal
+    circle (``distance`` from the seed <= ``radius``, NaN = not measured) that are reached.
+
+    Thesis plate 3.2: after r steps the disc has radius r cells and is "completed at 87 %"
+    (r = 10) and "99.9 %" (r = 70); 100 % means no hole or notch inside the ideal circle.
+    """
+    inside = np.nan_to_num(distance, nan=np.inf) <= radius
+    return float(np.mean(reached[inside])) if inside.any() else float("nan")

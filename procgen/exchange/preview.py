@@ -65,12 +65,15 @@ class Projection:
 
 
 def project(vertices: np.ndarray, size: tuple[int, int], *, azimuth: float, elevation: float,
-            up: str, margin: float = 0.06, supersample: int = 2) -> Projection:
+            up: str, margin: float = 0.06, supersample: int = 2,
+            frame: np.ndarray | None = None) -> Projection:
+    """Screen coordinates of ``vertices``, framed to fit ``frame`` (default: the vertices)."""
     eye, right, sup = camera_basis(azimuth, elevation, up)
     W, H = int(size[0]) * supersample, int(size[1]) * supersample
     x, y, z = vertices @ right, vertices @ sup, vertices @ eye
-    cx, cy = (x.max() + x.min()) / 2, (y.max() + y.min()) / 2
-    span = max(x.max() - x.min(), (y.max() - y.min()) * W / H, 1e-12)
+    fx, fy = (x, y) if frame is None else (frame @ right, frame @ sup)
+    cx, cy = (fx.max() + fx.min()) / 2, (fy.max() + fy.min()) / 2
+    span = max(fx.max() - fx.min(), (fy.max() - fy.min()) * W / H, 1e-12)
     scale = W * (1 - 2 * margin) / span
     return Projection((x - cx) * scale + W / 2, H / 2 - (y - cy) * scale, z, W, H)
 
@@ -102,15 +105,24 @@ def pixel_barycentric(proj: Projection, faces: np.ndarray, ids: np.ndarray) -> t
     return rows, cols, f, bc
 
 
+def composite(rgb: np.ndarray, ids: np.ndarray, background: tuple[int, int, int]) -> np.ndarray:
+    """(H, W, 3) float image: per-pixel colours where ``ids >= 0``, the background elsewhere."""
+    out = np.empty(ids.shape + (3,))
+    out[:] = np.asarray(background, float) / 255.0
+    out[ids >= 0] = rgb
+    return out
+
+
 def encode_png(rgb: np.ndarray, ids: np.ndarray, size: tuple[int, int],
                background: tuple[int, int, int]) -> bytes:
     """Composite per-pixel colours over the background, downsample, encode."""
+    return encode_image(composite(rgb, ids, background), size)
+
+
+def encode_image(out: np.ndarray, size: tuple[int, int]) -> bytes:
+    """Encode an (H, W, 3) float image in [0, 1] as PNG, downsampled to ``size``."""
     from PIL import Image
 
-    out = np.empty(ids.shape + (3,))
-    out[:] = np.asarray(background, float) / 255.0
-    mask = ids >= 0
-    out[mask] = rgb
     img = Image.fromarray(np.clip(np.round(out * 255), 0, 255).astype(np.uint8), "RGB")
     if img.size != tuple(size):
         img = img.resize(tuple(int(s) for s in size), Image.LANCZOS)
@@ -187,10 +199,14 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
 def preview_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_field: str | None = None, uv_field: str | None = None,
                 texture_field: str | None = None, width: int = 640, height: int = 480,
-                azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True) -> bytes:
+                azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True,
+                edges: bool = False, normals: float = 0.0) -> bytes:
     """Exporter: a TriMesh seen from a fixed camera as PNG (gallery thumbnails of any mesh).
 
     Uses the same colour sources as the OBJ/GLB exporters (vertex colours, or UV + texture).
+    ``edges`` draws the visible triangle edges, ``normals`` > 0 the visible vertex normals as
+    white strokes of that length (a fraction of the mesh's size): the input triangles "with
+    their normal vertex vectors in white" of the 3DSCA thesis's plates 3.1(a) and 4.1(a).
     """
     from ..domains import TriMesh
     from ..errors import InputError
@@ -198,5 +214,53 @@ def preview_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
 
     if not isinstance(domain, TriMesh):
         raise InputError(f"preview_png: expected a TriMesh, got {domain.kind}")
+    if normals < 0 or not np.isfinite(normals):
+        raise InputError(f"preview_png: normals must be a length >= 0, got {normals!r}")
     mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field)
-    return render_mesh_png(mesh, (width, height), azimuth=azimuth, elevation=elevation, up=up, lit=lit)
+    png = render_mesh_png(mesh, (width, height), azimuth=azimuth, elevation=elevation, up=up, lit=lit,
+                          smooth=not (edges or normals))
+    if not (edges or normals):
+        return png
+    return _overlay_lines(png, np.asarray(domain.vertices, float), np.asarray(domain.faces, np.int64),
+                          (width, height), azimuth=azimuth, elevation=elevation, up=up, edges=edges,
+                          normals=normals)
+
+
+def _overlay_lines(png: bytes, v: np.ndarray, f: np.ndarray, size: tuple[int, int], *, azimuth: float,
+                   elevation: float, up: str, edges: bool, normals: float) -> bytes:
+    """Draw the visible edges (dark) and vertex normals (white) over a rendered mesh PNG.
+
+    A vertex is visible when the face drawn at its pixel is not nearer the eye there than the
+    vertex (1 % of the mesh's extent of slack); an edge when both its ends are.
+    """
+    from PIL import Image, ImageDraw
+
+    eye = camera_basis(azimuth, elevation, up)[0]
+    proj = project(v, size, azimuth=azimuth, elevation=elevation, up=up, supersample=1)
+    ids = face_id_buffer(proj, f)
+    x = np.clip(proj.px.astype(int), 0, proj.width - 1)
+    y = np.clip(proj.py.astype(int), 0, proj.height - 1)
+    front = np.maximum(ids[y, x], 0)
+    corners = np.stack([proj.px[f[front]], proj.py[f[front]]], axis=2)              # (n, 3, 2)
+    bc = barycentric(corners, np.column_stack([proj.px, proj.py]))
+    depth_front = np.where(ids[y, x] >= 0, np.sum(bc * proj.depth[f[front]], axis=1), -np.inf)
+    slack = 0.01 * float(np.ptp(v, axis=0).max())
+    visible = depth_front <= proj.depth + slack
+    img = Image.open(io.BytesIO(png)).convert("RGB")
+    draw = ImageDraw.Draw(img)
+    if edges:
+        e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+        e = e[visible[e[:, 0]] & visible[e[:, 1]]]
+        for a, b in e.tolist():                      # one stroke per edge (a few thousand at most)
+            draw.line([(proj.px[a], proj.py[a]), (proj.px[b], proj.py[b])], fill=(40, 40, 40), width=1)
+    if normals:
+        vn = vertex_normals(v, f)
+        tip = project(np.vstack([v, v + normals * float(np.ptp(v, axis=0).max()) * vn]), size,
+                      azimuth=azimuth, elevation=elevation, up=up, supersample=1, frame=v)
+        n = len(v)
+        show = visible & (vn @ eye > -0.2)
+        for i in np.nonzero(show)[0].tolist():
+            draw.line([(tip.px[i], tip.py[i]), (tip.px[n + i], tip.py[n + i])], fill=(255, 255, 255), width=2)
+    buf = io.BytesIO()
+    img.save(buf, format="PNG")
+    return buf.getvalue()
