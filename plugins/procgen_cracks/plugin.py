@@ -5,7 +5,8 @@ from procgen.data import shipping_hooks
 
 @hookimpl
 def procgen_register_rules():
-    return []
+    from .rules import RULES
+    return list(RULES)
 
 
 @hookimpl
