@@ -5,7 +5,9 @@ from procgen.data import shipping_hooks
 
 @hookimpl
 def procgen_register_rules():
-    return []
+    from .imposed import ImposedCracks
+    from .peel import Peel
+    return [ImposedCracks, Peel]
 
 
 @hookimpl
