@@ -74,7 +74,7 @@ class ImposedCracks(CellAutomaton):
         moved = centres.copy()
         if self.wiggle > 0:
             for axis in range(3):
-                moved[:, axis] += self.wiggle * spacing * value_noise_3d(centres, rng, scale=spacing)
+                moved[:, axis] += self.wiggle * spacing * value_noise_3d(centres, rng, scale=spacing, octaves=2)
         _, labels = cKDTree(centres[seeds]).query(moved)
         cracked = region_borders(graph, labels) & present
         if self.gaps > 0 and cracked.any():
