@@ -4,7 +4,7 @@ The thesis peels along "precomputed" cracks loaded from a file (Gobron, §5.3.2(
 5.3); plate 5.13(b) shows such a crack network on a lattice.  This rule draws one without a
 stress model: cells take the nearest of random seed points (a 3-D Voronoi partition of the
 cell centres, its borders made irregular by fBm displacement), and every cell with a side
-neighbour of a smaller region id becomes cracked.  The crack line is one cell wide and closed
+neighbour of a smaller region id becomes cracked (links read both ways).  The crack line is one cell wide and closed
 for 4-neighbour flooding (no two uncracked cells of different regions are side neighbours).
 ``gaps`` opens stretches of the borders, so that regions merge and keep dangling inner cracks
 (the shallow group B of Figure 5.24).
@@ -27,10 +27,14 @@ from .peel import layer_index
 
 
 def region_borders(graph, labels: np.ndarray) -> np.ndarray:
-    """Cells with a neighbour of a smaller label (one side of every border)."""
-    e = labels[graph.indices] < labels[graph.rows]
+    """Cells on one side of every border: of each link between two labels, the larger one.
+
+    Both ends of a link are looked at, so a one-way cross-edge link cannot let a flood through.
+    """
+    r, c = graph.rows, graph.indices
+    e = labels[r] != labels[c]
     out = np.zeros(graph.n_cells, bool)
-    out[graph.rows[e]] = True
+    out[np.where(labels[r[e]] > labels[c[e]], r[e], c[e])] = True
     return out
 
 
