@@ -7,6 +7,7 @@ from scipy import ndimage
 
 from procgen import Grid, InputError, State
 from procgen.ca.graph import grid_graph
+from procgen.testing import drive_rule
 from procgen_cracks.peel import Peel, deaden, plan_peeling, sharp_links
 from procgen_layers.materials import parse_materials
 from procgen_layers.stack import put_thickness, store_table
@@ -31,14 +32,7 @@ def grid_state(cracked: np.ndarray, paint: float = 0.4) -> State:
 
 def run_peel(st: State, **params) -> tuple[Peel, int]:
     rule = Peel(**params)
-    st.iteration = -1
-    rule.setup(st)
-    it = 0
-    while True:
-        st.iteration = it
-        if not rule.step(st):
-            return rule, it
-        it += 1
+    return rule, drive_rule(rule, st)
 
 
 def rooms(ny=40, nx=60, every_y=10, every_x=15) -> np.ndarray:
