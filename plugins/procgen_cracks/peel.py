@@ -61,8 +61,10 @@ def sharp_links(domain: Any, graph: CellGraph, gamma: float) -> np.ndarray:
         return np.zeros(len(graph.indices), bool)
     fn = geo.face_normals(np.asarray(domain.vertices, float), np.asarray(domain.faces))
     a, b = face[graph.rows], face[graph.indices]
-    cos = np.einsum("ij,ij->i", fn[a], fn[b])
-    return (a != b) & (cos < np.cos(np.radians(gamma)) - 1e-12)
+    out = a != b                                       # only links between two facets can bend
+    e = np.nonzero(out)[0]
+    out[e] = np.einsum("ij,ij->i", fn[a[e]], fn[b[e]]) < np.cos(np.radians(gamma)) - 1e-12
+    return out
 
 
 @dataclass(frozen=True)
@@ -97,8 +99,9 @@ def plan_peeling(graph: CellGraph, cracked: np.ndarray, peelable: np.ndarray,
     inside = peelable & ~cracked
     group, n_groups = connected_components(graph, inside, keep)
     r, c = graph.rows, graph.indices
-    border = inside[r] & (~inside[c] | ~keep)
-    dist = hop_distance(graph, np.unique(r[border]), inside, keep)
+    border = np.zeros(n, bool)
+    border[r[inside[r] & (~inside[c] | ~keep)]] = True
+    dist = hop_distance(graph, border, inside, keep)
     level = np.where(inside & (dist >= 0), dist + 1, -1)
     level[cracked] = 0
     depth = np.zeros(n_groups, np.int64)
@@ -238,39 +241,43 @@ class Peel(CellAutomaton):
         state.report("peel.intact_cells", int(((p.group >= 0) & ~peeling[np.maximum(p.group, 0)]).sum()))
         state.report("peel.sharp_links", int((~keep).sum()))
         state.report("peel.deepest_level", p.passes)
-        n = graph.n_cells
-        put_cell_values(dom, "peel__time", np.full(n, -1, np.int64), units="steps")
-        self._publish(dom, reached=self._plan.level <= (0 if self.grow else p.passes))
+        put_cell_values(dom, "peel__time", np.full(graph.n_cells, -1, np.int64), units="steps")
+        self._rgb: np.ndarray | None = None
+        self._grown(dom, 0 if self.grow else p.passes)
 
-    def _publish(self, dom: Any, reached: np.ndarray) -> None:
+    def _grown(self, dom: Any, passes: int) -> None:
+        """Fields after ``passes`` passes of task 1: the cells within that many rings are reached."""
         p = self._plan
-        reached = reached & (p.level >= 0)
-        group = np.where(reached & (p.level > 0), p.group, -1)
-        level = np.where(reached, p.level, -1)
-        passes = min(self._pass, p.passes) if self.grow else p.passes
+        cracked = p.level == 0
+        reached = (p.level > 0) & (p.level <= passes)
         # the thesis's level pc: passes since the front reached the cell (older = higher)
-        age = np.where(reached & (p.level > 0), passes - p.level + 1, 0)
-        on = cell_values(dom, "peel__time") < 0
-        peeled = ~on & (p.level >= 0)
+        age = np.where(reached, passes - p.level + 1, 0)
+        group = np.where(reached, p.group, -1)
         put_cell_values(dom, "peel__group", group, units="")
-        put_cell_values(dom, "peel__level", level, units="")
-        put_cell_values(dom, "peel__lift", np.where(on, deaden(age, self.lift_height, self.deaden), 0.0),
-                        units="length")
+        put_cell_values(dom, "peel__level", np.where(reached | cracked, p.level, -1), units="")
+        self._lift = deaden(age, self.lift_height, self.deaden)
+        put_cell_values(dom, "peel__lift", self._lift, units="length")
         if self.view == "groups":
-            rgb = group_colors(group, p.level == 0)
+            self._rgb = group_colors(group, cracked)
         elif self.view == "levels":
-            rgb = level_colors(age, reached & (p.level > 0), p.level == 0)
-        else:
-            return
-        rgb[peeled] = PEELED_COLOR
-        put_cell_values(dom, "peel__color", rgb, units="rgb")
+            self._rgb = level_colors(age, reached, cracked)
+        if self._rgb is not None:
+            put_cell_values(dom, "peel__color", self._rgb, units="rgb")
+
+    def _peeled(self, dom: Any, now: np.ndarray) -> None:
+        """Fields after a peeling step: the peeled cells lie flat and show as peeled."""
+        self._lift = np.where(now, 0.0, self._lift)
+        put_cell_values(dom, "peel__lift", self._lift, units="length")
+        if self._rgb is not None:
+            self._rgb = np.where(now[:, None], np.asarray(PEELED_COLOR), self._rgb)
+            put_cell_values(dom, "peel__color", self._rgb, units="rgb")
 
     def step(self, state: State) -> bool:
         dom = state.get(self.cells)
         p = self._plan
         self._pass += 1
         if self.grow and self._pass <= p.passes:           # task 1: one more ring of levels
-            self._publish(dom, reached=p.level <= self._pass)
+            self._grown(dom, self._pass)
             return True
         k = self._pass - 1 - (p.passes if self.grow else 0)  # task 2: peeling step k
         if k >= int(np.ceil(self.peel_share * p.n_steps - 1e-9)):
@@ -279,8 +286,7 @@ class Peel(CellAutomaton):
         thick = np.array(cell_values(dom, THICKNESS), float)
         thick[now, self._li] *= np.where(p.level[now] == 0, self.residue, 0.0)
         put_thickness(dom, thick, load_table(dom))
-        t = np.array(cell_values(dom, "peel__time"))
-        t[now] = state.iteration
+        t = np.where(now, state.iteration, cell_values(dom, "peel__time"))
         put_cell_values(dom, "peel__time", t, units="steps")
-        self._publish(dom, reached=p.level >= 0)
+        self._peeled(dom, now)
         return True
