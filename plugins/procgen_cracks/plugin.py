@@ -7,7 +7,8 @@ from procgen.data import shipping_hooks
 def procgen_register_rules():
     from .imposed import ImposedCracks
     from .peel import Peel
-    return [ImposedCracks, Peel]
+    from .rules import RULES
+    return [*RULES, ImposedCracks, Peel]
 
 
 @hookimpl
