@@ -199,3 +199,20 @@ def all_rule_names(host: PluginHost | None = None) -> list[str]:
 
 __all__ = ["check_rule_contract", "all_rule_names", "run_example", "state_arrays", "example_steps",
            "undeclared_writes", "read_field_vocabulary", "field_vocabulary_problems", "ProcgenError"]
+
+
+def drive_rule(rule: RuleBase, state: State, max_iterations: int = 100_000) -> int:
+    """Run one rule on a hand-built state as the runner would (setup, steps until one returns
+    False or ``max_iterations``, finish), without a recipe: for unit tests and benchmarks that
+    time a rule alone.  Returns the number of iterations that changed something."""
+    state.iteration = -1
+    rule.setup(state)
+    it = 0
+    while it < max_iterations:
+        state.iteration = it
+        if not rule.step(state):
+            break
+        it += 1
+    state.iteration = it
+    rule.finish(state)
+    return it

@@ -5,8 +5,10 @@ from procgen.data import shipping_hooks
 
 @hookimpl
 def procgen_register_rules():
+    from .imposed import ImposedCracks
+    from .peel import Peel
     from .rules import RULES
-    return list(RULES)
+    return [*RULES, ImposedCracks, Peel]
 
 
 @hookimpl
