@@ -5,12 +5,14 @@ from procgen.data import shipping_hooks
 
 @hookimpl
 def procgen_register_rules():
-    return []
+    from .render_rules import RULES as RENDER_RULES
+    return [*RENDER_RULES]
 
 
 @hookimpl
 def procgen_register_exporters():
-    return []
+    from .exporters import EXPORTERS as RENDER_EXPORTERS
+    return [*RENDER_EXPORTERS]
 
 
 procgen_recipe_dirs, procgen_gallery_lists = shipping_hooks(__file__, (), ("cracks.toml",))
