@@ -53,6 +53,13 @@ def light_vectors(points: np.ndarray, light: np.ndarray) -> np.ndarray:
     return d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
 
 
+def front_lit_faces(cells, light: np.ndarray) -> np.ndarray:
+    """(m,) facets lit from the front (Figure 5.17), a spot light judged at each facet centroid."""
+    normal = geo.face_normals(cells.vertices, cells.faces)
+    centre = cells.vertices[cells.faces].mean(axis=1)
+    return np.sum(light_vectors(centre, light) * normal, axis=1) > 0
+
+
 def mirror_bands(cells, seg: Segments, thickness: np.ndarray, light: np.ndarray, *,
                  refraction: float = 1.5, model: str = "snell") -> tuple[Segments, Segments, np.ndarray]:
     """(shadow, highlight) band segments and the front-lit mask of each crack segment.

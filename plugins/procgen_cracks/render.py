@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procgen.errors import InputError
+from procgen.geometry import orient2d as geo_orient
 
 PROFILES = ("constant", "v_linear", "v_parabolic_a", "v_parabolic_b",
             "u_linear", "u_parabolic_a", "u_parabolic_b")
@@ -156,6 +157,10 @@ class Segments:
     def with_width(self, width: np.ndarray) -> "Segments":
         return Segments(self.face, self.a, self.b, width, width)
 
+    def concat(self, other: "Segments") -> "Segments":
+        return Segments(*(np.concatenate([getattr(self, k), getattr(other, k)])
+                          for k in ("face", "a", "b", "wa", "wb")))
+
     def split(self, max_len: float) -> "Segments":
         """Pieces no longer than ``max_len`` (bounds the micro-cells each piece can touch)."""
         length = np.linalg.norm(self.b - self.a, axis=1)
@@ -167,6 +172,62 @@ class Segments:
         a, b, wa, wb = self.a[seg], self.b[seg], self.wa[seg], self.wb[seg]
         return Segments(self.face[seg], a + t0[:, None] * (b - a), a + t1[:, None] * (b - a),
                         wa + t0 * (wb - wa), wa + t1 * (wb - wa))
+
+
+def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ab = b - a
+    t = np.clip(np.sum((p - a) * ab, 1) / np.maximum(np.sum(ab * ab, 1), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p - a - t[:, None] * ab, axis=1)
+
+
+def unfold_across_edges(cells, seg: Segments, reach: np.ndarray) -> Segments:
+    """Copies of the pieces whose band reaches a facet edge, unfolded into the facet across it.
+
+    A crack wider than its distance to a facet edge also covers the neighbour facet's micro-cells
+    (the thesis drops that share, Figure 5.14; with smooth bands the cut shows).  The neighbour's
+    frame is reached by the rigid map (a rotation, a reflection when the two frames have opposite
+    handedness) that takes the shared edge onto itself and puts the facets on opposite sides:
+    the thesis's unfolding of a facet pair (3DSCA edge communication).
+    """
+    from procgen.domains.trimesh_domain import edge_table
+
+    f = cells.faces
+    _, fe, ef, _ = edge_table(f, cells.valid)
+    c2 = cells.corners2d
+    idx = np.repeat(np.arange(len(seg)), 3)
+    fa = seg.face[idx]
+    k = np.tile(np.arange(3), len(seg))
+    e = fe[fa, k]
+    fb = np.where(ef[e, 0] == fa, ef[e, 1], ef[e, 0])
+    pa, qa = c2[fa, k], c2[fa, (k + 1) % 3]
+    a, b = seg.a[idx], seg.b[idx]
+    near = np.minimum.reduce([_point_segment_distance(a, pa, qa), _point_segment_distance(b, pa, qa),
+                              _point_segment_distance(pa, a, b), _point_segment_distance(qa, a, b)])
+    use = (fb >= 0) & (near <= reach[idx])
+    idx, fa, fb, k, pa, qa = idx[use], fa[use], fb[use], k[use], pa[use], qa[use]
+    vp, vq = f[fa, k], f[fa, (k + 1) % 3]
+    rows = np.arange(len(fb))
+    pb = c2[fb, np.argmax(f[fb] == vp[:, None], axis=1)]
+    qb = c2[fb, np.argmax(f[fb] == vq[:, None], axis=1)]
+    ang = np.arctan2(*(qb - pb)[:, ::-1].T) - np.arctan2(*(qa - pa)[:, ::-1].T)
+    cos, sin = np.cos(ang), np.sin(ang)
+
+    def rotate(x: np.ndarray) -> np.ndarray:
+        d = x - pa
+        return pb + np.column_stack([cos * d[:, 0] - sin * d[:, 1], sin * d[:, 0] + cos * d[:, 1]])
+
+    third_a = rotate(c2[fa, (k + 2) % 3])
+    third_b = c2[fb][rows, 3 - np.argmax(f[fb] == vp[:, None], axis=1) - np.argmax(f[fb] == vq[:, None], axis=1)]
+    same_side = geo_orient(pb, qb, third_a) * geo_orient(pb, qb, third_b) > 0
+    u = (qb - pb) / np.maximum(np.linalg.norm(qb - pb, axis=1, keepdims=True), 1e-300)
+
+    def unfold(x: np.ndarray) -> np.ndarray:
+        y = rotate(x)
+        d = y - pb
+        mirrored = pb + 2.0 * np.sum(d * u, 1)[:, None] * u - d
+        return np.where(same_side[:, None], mirrored, y)
+
+    return Segments(fb, unfold(seg.a[idx]), unfold(seg.b[idx]), seg.wa[idx], seg.wb[idx])
 
 
 def _spans(seg: Segments, reach: np.ndarray, cells, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -190,13 +251,15 @@ def _pairs(seg: Segments, reach: np.ndarray, cells, k: int) -> tuple[np.ndarray,
 
 
 def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
-                   saturation: float = 0.5) -> np.ndarray:
+                   saturation: float = 0.5, faces: np.ndarray | None = None) -> np.ndarray:
     """(n_cells, k, k) float32 coverage of every micro-cell [cell, x, y] by the segments.
 
     The subdivided ("cracked") cells are those the crack band overlaps: the cells on the path
     and, where a crack is wider than its distance to a cell border, the neighbour it reaches
-    (other cells stay 0).  A band reaching over a facet edge is cut there, and micro-cells
-    outside their triangle are computed but never shown: the thesis ignores both (Figure 5.14).
+    (other cells stay 0).  A band reaching over a facet edge continues on the neighbour facet
+    (:func:`unfold_across_edges`); micro-cells outside their triangle are computed but never
+    shown (Figure 5.14's pink micro-cells).  ``faces`` (m,) bool: facets that may be drawn on
+    (the crack mirror's front-lit facets); default all.
     """
     _check_profile(profile)
     out = np.zeros(cells.n_cells * k * k, np.float32)
@@ -205,6 +268,13 @@ def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
     if len(pieces) == 0:
         return out.reshape(cells.n_cells, k, k)
     cs = cells.size / k
+    reach = 0.5 * np.maximum(pieces.wa, pieces.wb) + cs
+    spill = unfold_across_edges(cells, pieces, reach)
+    pieces = pieces.concat(spill)
+    if faces is not None:
+        pieces = pieces.select(np.asarray(faces, bool)[pieces.face])
+    if len(pieces) == 0:
+        return out.reshape(cells.n_cells, k, k)
     reach = 0.5 * np.maximum(pieces.wa, pieces.wb) + cs
     span = _spans(pieces, reach, cells, k)[1]
     cum = np.cumsum(span[:, 0] * span[:, 1])

@@ -21,7 +21,7 @@ from procgen import FieldSpec, InputError, Polylines, RuleBase, State, param
 from procgen import geometry as geo
 from procgen.lighting import light_direction
 
-from .mirror import MODELS, mirror_bands
+from .mirror import MODELS, front_lit_faces, mirror_bands
 from .render import PROFILES, Segments, facet_segments, micro_coverage
 
 THICKNESS = "layers__thickness"
@@ -155,8 +155,9 @@ class CrackMirror(RuleBase):
         glaze = np.where(under >= 0, t[np.maximum(under, 0)], 0.0) * self.depth * cells.size
         shadow, highlight, front = mirror_bands(cells, seg, glaze, light,
                                                 refraction=self.refraction, model=self.model)
+        lit = front_lit_faces(cells, light)
         for name, band in (("crack__shadow", shadow), ("crack__highlight", highlight)):
-            cov = micro_coverage(cells, band, self.k, profile=self.profile)
+            cov = micro_coverage(cells, band, self.k, profile=self.profile, faces=lit)
             cells.add_field(name, cov, at="cell", units="1",
                             doc=f"crack-mirror {name[7:]} of {self.k}x{self.k} micro-cells")
         state.report(f"{self.cells}.cracks.mirror_front_lit_segments", int(front.sum()))
