@@ -6,7 +6,8 @@ from procgen.data import shipping_hooks
 @hookimpl
 def procgen_register_rules():
     from .render_rules import RULES as RENDER_RULES
-    return [*RENDER_RULES]
+    from .rules import RULES
+    return [*RULES, *RENDER_RULES]
 
 
 @hookimpl

@@ -1,0 +1,416 @@
+"""Crack modules (CM): the heads of cracks walking over the surface cells (thesis 5.2.4.b-c).
+
+Every live CM advances together, one sub-cell step per call of :meth:`Modules.step`, as numpy
+arrays (no per-CM Python loop): it reads the interpolated stress spectrum ahead of it, turns
+towards the direction across the strongest axis by (1 - Iip) of the angle, gains or loses
+kinetic potential K, cracks every cell it enters, releases the stress across its step on both
+sides, forks at +-pi/3 when its two strongest axes tie, crosses facet edges by unfolding into
+the neighbour's frame, and ends on entering a cracked cell or when K <= 0.  Paths are stored
+as merged segments (a vertex where the chord turns by more than CSa), split at facet edges,
+with widths growing with the stress released (Figure 5.12).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from procgen.ca.subcell import AXIS_ANGLES, across_share, wrap_angle
+from procgen_surface.geometry import edge_half_planes
+from procgen_surface.neighbours import edge_frames, edge_topology
+
+from .stress import FaceSampler
+
+_STATE = ("layer", "face", "xy", "ang", "K", "R", "crack", "ctype", "line", "cell", "prev",
+          "anchor", "seg", "turn", "steps")
+
+
+class FacetEdges:
+    """Per (facet, edge k): the neighbour facet, and the rigid map of 2-D frames across it."""
+
+    def __init__(self, sc: Any) -> None:
+        layout = sc.layout
+        faces = np.asarray(sc.faces)
+        m = len(faces)
+        topo = edge_topology(faces, sc.valid)
+        f = np.repeat(np.arange(m), 3)
+        k = np.tile(np.arange(3), m)
+        e = topo.face_edges[f, k]
+        a, b = topo.edge_faces[e, 0], topo.edge_faces[e, 1]
+        g = np.where(a == f, b, np.where(b == f, a, -1))
+        ok = (g >= 0) & sc.valid[np.maximum(g, 0)] & sc.valid[f]
+        fr = edge_frames(layout, faces, f, np.where(ok, g, f), k)
+        self.nb = np.where(ok, g, -1).reshape(m, 3)
+        # vector map f -> g: v -> (v . t_f) t_g + (v . n_out) n_in   (M @ v)
+        mat = fr.t_g[:, :, None] * fr.t_f[:, None, :] + fr.n_in[:, :, None] * fr.n_out[:, None, :]
+        self.mat = mat.reshape(m, 3, 2, 2)
+        self.u_f = fr.u_f.reshape(m, 3, 2)
+        self.u_g = fr.u_g.reshape(m, 3, 2)
+        self.nrm, self.off = edge_half_planes(layout.frames.corners2d)
+
+    def outside(self, face: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        """(m, 3) signed distances inside each edge's half-plane (negative: beyond edge k)."""
+        return np.einsum("mkd,md->mk", self.nrm[face], xy) - self.off[face]
+
+
+class Modules:
+    """All crack modules of one propagation run, their paths and the cells they crack."""
+
+    def __init__(self, sc: Any, spec: np.ndarray, active: np.ndarray, rule: Any,
+                 slots: np.ndarray) -> None:
+        self.sc, self.rule = sc, rule
+        self.spec = spec                                      # (n, L, 4), released in place
+        self.flat = spec.reshape(-1, 4)
+        self.active = active                                  # (n, L) cells of crackable layers
+        self.n, self.n_layers = active.shape
+        self.size = float(sc.size)
+        self.sampler = FaceSampler(sc.layout)
+        self.edges = FacetEdges(sc)
+        self.slots = slots
+        self.center2d = np.asarray(sc.center2d)
+        self.cell_face = np.asarray(sc.face)
+        self.cracked = np.zeros((self.n, self.n_layers), bool)
+        self.width = np.zeros((self.n, self.n_layers))
+        self.crack_of = np.full((self.n, self.n_layers), -1, np.int64)
+        self.cm = {k: np.zeros((0,) + ((2,) if k in ("xy", "anchor") else ()),
+                               float if k in ("xy", "ang", "K", "R", "anchor", "seg", "turn") else np.int64)
+                   for k in _STATE}
+        self.n_cracks = 0
+        self.n_lines = 0
+        self._pts: list[tuple[np.ndarray, ...]] = []
+        self._line_meta: list[tuple[np.ndarray, ...]] = []
+        self._seq = 0
+        self.stats = {"steps": 0, "modules": 0, "forks": 0, "collisions": 0, "stopped_by_potential": 0,
+                      "lost_at_border": 0, "max_step": 0.0, "max_heading_ratio": 0.0}
+
+    # -- bookkeeping ------------------------------------------------------------------------
+    @property
+    def n_live(self) -> int:
+        return len(self.cm["face"])
+
+    def _width(self, R: np.ndarray) -> np.ndarray:
+        r0 = self.rule.width_scale * self.rule.resistance_value
+        return self.rule.max_width * R / (R + r0)
+
+    def _emit(self, sel: np.ndarray, xy: np.ndarray, face: np.ndarray) -> None:
+        """Append a vertex (3-D point, width, facet) to the current line of CMs ``sel``."""
+        if len(sel) == 0:
+            return
+        p3 = self.sc.layout.frames.to_3d(face, xy)
+        seq = self._seq + np.arange(len(sel))
+        self._seq += len(sel)
+        self._pts.append((self.cm["line"][sel].copy(), seq, p3, self._width(self.cm["R"][sel]), face.copy()))
+
+    def _new_lines(self, sel: np.ndarray) -> None:
+        ids = self.n_lines + np.arange(len(sel))
+        self.n_lines += len(sel)
+        self.cm["line"][sel] = ids
+        self._line_meta.append((ids, self.cm["layer"][sel].copy(), self.cm["ctype"][sel].copy(),
+                                self.cm["crack"][sel].copy()))
+
+    def _append(self, **vals: np.ndarray) -> np.ndarray:
+        k = len(vals["face"])
+        start = self.n_live
+        for key in _STATE:
+            v = vals.get(key)
+            if v is None:
+                shape = (k, 2) if key in ("xy", "anchor") else (k,)
+                v = np.full(shape, np.nan) if key == "seg" else np.zeros(shape, self.cm[key].dtype)
+            self.cm[key] = np.concatenate([self.cm[key], np.asarray(v, self.cm[key].dtype)])
+        sel = np.arange(start, start + k)
+        self._new_lines(sel)
+        self._emit(sel, self.cm["xy"][sel], self.cm["face"][sel])
+        self.stats["modules"] += k
+        return sel
+
+    def _keep(self, keep: np.ndarray) -> None:
+        for key in _STATE:
+            self.cm[key] = self.cm[key][keep]
+
+    # -- birth --------------------------------------------------------------------------------
+    def birth(self, cells: np.ndarray, layers: np.ndarray, types: np.ndarray,
+              who: np.ndarray, heading: np.ndarray) -> None:
+        """Start cracks at cells (their centres); ``who``/``heading``: one row per CM."""
+        crack_ids = self.n_cracks + np.arange(len(cells))
+        self.n_cracks += len(cells)
+        self.cracked[cells, layers] = True
+        self.crack_of[cells, layers] = crack_ids
+        imax = self.spec[cells, layers].max(axis=1)
+        c, lay = cells[who], layers[who]
+        K0 = self.rule.potential * imax[who]
+        start = self._inside(self.cell_face[c], self.center2d[c])
+        self._append(layer=lay, face=self.cell_face[c], xy=start, ang=heading, K=K0,
+                     R=imax[who], crack=crack_ids[who], ctype=types[who], cell=c, prev=c,
+                     anchor=start)
+        np.maximum.at(self.width, (c, lay), self._width(self.cm["R"][-len(who):]))
+
+    def _inside(self, face: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        """Points moved towards their facet's centroid until inside it (PART-IN cell centres
+        lie outside the triangle)."""
+        d = self.edges.outside(face, xy)
+        cen = self.sc.layout.frames.corners2d[face].mean(axis=1)
+        dc = self.edges.outside(face, cen)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam = np.where(d < 0, -d / (dc - d), 0.0).max(axis=1)
+        lam = np.where(lam > 0, np.minimum(lam + 1e-3, 1.0), 0.0)
+        return xy + lam[:, None] * (cen - xy)
+
+    # -- one step of every CM -----------------------------------------------------------------
+    def step(self) -> None:
+        r, cm, s = self.rule, self.cm, self.size
+        m = self.n_live
+        if m == 0:
+            return
+        face, xy, ang, lay = cm["face"].copy(), cm["xy"].copy(), cm["ang"].copy(), cm["layer"]
+        hvec = np.column_stack([np.cos(ang), np.sin(ang)])
+        # 1. the spectrum ahead of the head (its own release band covers the head's cells);
+        # where the point ahead is off the facet, the spectrum at the head
+        spec, found = self._sample(lay, face, xy + r.lookahead * s * hvec)
+        if not found.all():
+            here, _ = self._sample(lay, face, xy)
+            spec = np.where(found[:, None], spec, here)
+        srt = np.sort(spec, axis=1)
+        s1, s2 = srt[:, -1], srt[:, -2]
+        k1 = np.argmax(spec, axis=1)
+        mr = r.resistance_value
+        above = s1 > mr
+        infl = AXIS_ANGLES[k1] + np.pi / 2                    # across the strongest axis
+        d = wrap_angle(infl - ang)
+        d = np.where(d > np.pi / 2, d - np.pi, np.where(d <= -np.pi / 2, d + np.pi, d))
+        turn = np.where(above, (1.0 - r.inertia / 100.0) * d, 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(np.abs(d) > 1e-12, np.abs(turn) / np.abs(d), 0.0)
+        self.stats["max_heading_ratio"] = max(self.stats["max_heading_ratio"], float(ratio.max()))
+        new_ang = ang + turn
+        fork = above & (s1 - s2 < r.fork_epsilon * mr) & (s2 > mr) & (cm["steps"] >= 2)
+        cm["K"] = cm["K"] + r.potential * (s1 - mr) * r.step_length
+        # 2. move, crossing facet edges
+        step_vec = r.step_length * s * np.column_stack([np.cos(new_ang), np.sin(new_ang)])
+        q = xy + step_vec
+        old3 = self.sc.layout.frames.to_3d(face, xy)
+        new_face, q, new_ang, lost, crossed = self._cross(face, xy, q, new_ang)
+        new3 = self.sc.layout.frames.to_3d(new_face, q)
+        self.stats["max_step"] = max(self.stats["max_step"], float(np.linalg.norm(new3 - old3, axis=1).max()))
+        cell_new = self.sampler.cell_of(new_face, q)
+        lost |= cell_new < 0
+        cell_new = np.where(lost, cm["cell"], cell_new)
+        entering = (cell_new != cm["cell"]) & ~lost
+        collide = entering & self.cracked[cell_new, lay] & (cell_new != cm["prev"])
+        new = entering & ~collide
+        self.cracked[cell_new[new], lay[new]] = True
+        self.crack_of[cell_new[new], lay[new]] = cm["crack"][new]
+        cm["prev"] = np.where(entering, cm["cell"], cm["prev"])
+        cm["cell"] = cell_new
+        cm["face"], cm["xy"], cm["ang"] = new_face, q, new_ang
+        cm["steps"] = cm["steps"] + 1
+        # 3. release the stress across the step, widen the crack
+        go = ~lost
+        cm["R"] = cm["R"] + self._release(np.nonzero(go)[0])
+        np.maximum.at(self.width, (cell_new[go], lay[go]), self._width(cm["R"][go]))
+        # 4. merged segments: a vertex where the chord from the last vertex turns by > CSa
+        self._segments(xy, ~crossed & go, new_ang - ang)
+        self.stats["steps"] += 1
+        # 5. endings and forks
+        ended = collide | (cm["K"] <= 0) | lost | (cm["steps"] >= r.max_module_steps)
+        self.stats["collisions"] += int(collide.sum())
+        self.stats["stopped_by_potential"] += int(((cm["K"] <= 0) & ~collide & ~lost).sum())
+        self.stats["lost_at_border"] += int(lost.sum())
+        fork &= ~ended
+        fin = np.nonzero(ended | fork)[0]
+        self._emit(fin, cm["xy"][fin], cm["face"][fin])
+        kids = np.nonzero(fork)[0]
+        keep = ~(ended | fork)
+        if len(kids):
+            self.stats["forks"] += len(kids)
+            par = np.repeat(kids, 2)
+            sign = np.tile([1.0, -1.0], len(kids))
+            vals = {key: cm[key][par] for key in _STATE if key not in ("line", "seg", "turn", "steps")}
+            vals["ang"] = cm["ang"][par] + sign * np.pi / 3
+            vals["anchor"] = cm["xy"][par]
+            self._keep(keep)
+            self._append(**vals)
+        else:
+            self._keep(keep)
+
+    # -- helpers ------------------------------------------------------------------------------
+    def _sample(self, lay: np.ndarray, face: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Interpolated spectrum of each CM's layer at points (missing cells drop out), and
+        whether any cell was found."""
+        cells, w = self.sampler.stencil(face, xy)
+        ok = cells >= 0
+        w = np.where(ok, w, 0.0)
+        tot = w.sum(axis=1, keepdims=True)
+        vals = self.spec[np.maximum(cells, 0), lay[:, None]]          # (m, 4 cells, 4 axes)
+        return np.einsum("mq,mqk->mk", w / np.where(tot > 0, tot, 1.0), vals), tot[:, 0] > 0
+
+    def _cross(self, face: np.ndarray, xy: np.ndarray, q: np.ndarray, ang: np.ndarray):
+        """Unfold steps that leave their facet into the neighbour's frame (up to 3 edges)."""
+        cm, ed = self.cm, self.edges
+        face, q, ang = face.copy(), q.copy(), ang.copy()
+        p = xy.copy()
+        lost = np.zeros(len(face), bool)
+        crossed = np.zeros(len(face), bool)
+        for _ in range(3):                                     # a step crosses at most a corner
+            dq = ed.outside(face, q)
+            out = np.nonzero((dq < -1e-12 * self.size).any(axis=1) & ~lost)[0]
+            if len(out) == 0:
+                break
+            f, pp, qq = face[out], p[out], q[out]
+            dp = np.maximum(ed.outside(f, pp), 0.0)
+            d2 = dq[out]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.where(d2 < 0, np.clip(dp / (dp - d2), 0.0, 1.0), np.inf)
+            k = np.argmin(t, axis=1)
+            tk = t[np.arange(len(out)), k]
+            e = pp + tk[:, None] * (qq - pp)
+            g = ed.nb[f, k]
+            # close the old facet's line at the edge point, then open a new line over the edge
+            cm["xy"][out] = e
+            self._emit(out, e, f)
+            gone = g < 0
+            lost[out[gone]] = True
+            q[out[gone]] = e[gone]
+            ok = out[~gone]
+            if len(ok) == 0:
+                continue
+            fo, ko = f[~gone], k[~gone]
+            mat = ed.mat[fo, ko]
+            eg = ed.u_g[fo, ko] + np.einsum("mij,mj->mi", mat, e[~gone] - ed.u_f[fo, ko])
+            rest = np.einsum("mij,mj->mi", mat, (qq - e)[~gone])
+            hv = np.einsum("mij,mj->mi", mat, np.column_stack([np.cos(ang[ok]), np.sin(ang[ok])]))
+            face[ok] = g[~gone]
+            p[ok] = eg
+            q[ok] = eg + rest
+            ang[ok] = np.arctan2(hv[:, 1], hv[:, 0])
+            crossed[ok] = True
+            cm["face"][ok] = face[ok]
+            cm["xy"][ok] = eg
+            self._new_lines(ok)
+            self._emit(ok, eg, face[ok])
+            cm["anchor"][ok] = eg
+            cm["seg"][ok] = np.nan
+            cm["turn"][ok] = 0.0
+        still = np.nonzero((ed.outside(face, q) < -1e-9 * self.size).any(axis=1) & ~lost)[0]
+        lost[still] = True
+        q[still] = p[still]
+        return face, q, ang, lost, crossed
+
+    def _segments(self, old_xy: np.ndarray, check: np.ndarray, dturn: np.ndarray) -> None:
+        """Store a vertex at the previous position where the path has turned by more than CSa."""
+        cm, r = self.cm, self.rule
+        cm["turn"] = cm["turn"] + np.abs(dturn)
+        chord = cm["xy"] - cm["anchor"]
+        cang = np.arctan2(chord[:, 1], chord[:, 0])
+        fresh = np.isnan(cm["seg"]) & (np.hypot(chord[:, 0], chord[:, 1]) > 0)
+        cm["seg"] = np.where(fresh, cang, cm["seg"])
+        csa = np.radians(r.segment_angle)
+        with np.errstate(invalid="ignore"):
+            bend = (np.abs(wrap_angle(cang - cm["seg"])) > csa) | (cm["turn"] > csa + np.radians(r.segment_tolerance))
+        vert = np.nonzero(check & bend & ~fresh)[0]
+        if len(vert) == 0:
+            return
+        self._emit(vert, old_xy[vert], cm["face"][vert])
+        cm["anchor"][vert] = old_xy[vert]
+        d = cm["xy"][vert] - old_xy[vert]
+        cm["seg"][vert] = np.arctan2(d[:, 1], d[:, 0])
+        cm["turn"][vert] = 0.0
+
+    def _release(self, sel: np.ndarray) -> np.ndarray:
+        """Release stress across the last step of CMs ``sel`` (thesis 5.2.4.c, Figure 5.13).
+
+        Cells whose centre projects onto the step and lies within d of it lose, on each axis,
+        the share ``release * (1 - x/d) * |sin(axis - path)|``: the stress across the path, the
+        most on the path, falling linearly to 0 at distance d; stress along the path stays.
+        (A cell whose centre projects outside every step, at a sharp turn, gets none: the
+        thesis's Figure 5.13 flaw.)  Several CMs on one cell combine multiplicatively, so no
+        value goes negative.  Returns the stress released by each CM (0 for the others).
+        """
+        out = np.zeros(self.n_live)
+        if len(sel) == 0:
+            return out
+        r, cm, s = self.rule, self.cm, self.size
+        face, lay = cm["face"][sel], cm["layer"][sel]
+        h = np.column_stack([np.cos(cm["ang"][sel]), np.sin(cm["ang"][sel])])
+        seg_len = r.step_length * s
+        start = cm["xy"][sel] - seg_len * h
+        dist = r.release_distance
+        # every cell whose centre projects onto the step is crossed by the perpendicular
+        # through the step's middle: sample it every quarter cell out to d on both sides
+        mid = start + 0.5 * seg_len * h
+        nrm = np.column_stack([-h[:, 1], h[:, 0]])
+        off = np.arange(-4 * np.ceil(dist), 4 * np.ceil(dist) + 1) * (s / 4.0)
+        pts = (mid[:, None, :] + off[None, :, None] * nrm[:, None, :]).reshape(-1, 2)
+        mi = np.repeat(np.arange(len(sel)), len(off))
+        pf, pxy, hv, p0 = self._unfold_points(face[mi], pts, h[mi], start[mi])
+        c = np.full(len(mi), -1, np.int64)
+        ok = pf >= 0
+        c[ok] = self.sampler.cell_of(pf[ok], pxy[ok])
+        ok = c >= 0
+        ok[ok] = self.active[c[ok], lay[mi[ok]]]
+        mi, c, hv, p0 = mi[ok], c[ok], hv[ok], p0[ok]
+        key = c * self.n_layers + lay[mi]
+        _, first = np.unique(mi * (self.n * self.n_layers) + key, return_index=True)
+        mi, c, hv, p0, key = mi[first], c[first], hv[first], p0[first], key[first]
+        rel = self.center2d[c] - p0                       # in the released cell's facet frame
+        t = np.einsum("md,md->m", rel, hv) / seg_len
+        perp = np.abs(rel[:, 0] * hv[:, 1] - rel[:, 1] * hv[:, 0]) / s
+        band = (t >= 0) & (t <= 1) & (perp < dist)
+        mi, hv, key, perp = mi[band], hv[band], key[band], perp[band]
+        frac = r.release * (1.0 - perp / dist)
+        share = np.clip(frac[:, None] * across_share(np.arctan2(hv[:, 1], hv[:, 0])), 0.0, 1.0)
+        before = self.flat[key]
+        uk, inv = np.unique(key, return_inverse=True)
+        with np.errstate(divide="ignore"):
+            logkeep = np.log(np.maximum(1.0 - share, 0.0))
+        tot = np.zeros((len(uk), 4))
+        np.add.at(tot, inv, logkeep)
+        self.flat[uk] = self.flat[uk] * np.exp(tot)
+        out[sel] = np.bincount(mi, weights=(before * share).sum(axis=1), minlength=len(sel))
+        return out
+
+    def _unfold_points(self, face: np.ndarray, xy: np.ndarray, h: np.ndarray,
+                       p0: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Points off their facet, with a direction and a reference point, unfolded across
+        the edge they are most beyond into the neighbour's frame (face -1: still off)."""
+        ed = self.edges
+        face, xy, h, p0 = face.copy(), xy.copy(), h.copy(), p0.copy()
+        dq = ed.outside(face, xy)
+        off = np.nonzero(dq.min(axis=1) < 0)[0]
+        if len(off):
+            f = face[off]
+            k = np.argmin(dq[off], axis=1)
+            g = ed.nb[f, k]
+            mat, uf, ug = ed.mat[f, k], ed.u_f[f, k], ed.u_g[f, k]
+            xy[off] = ug + np.einsum("mij,mj->mi", mat, xy[off] - uf)
+            p0[off] = ug + np.einsum("mij,mj->mi", mat, p0[off] - uf)
+            h[off] = np.einsum("mij,mj->mi", mat, h[off])
+            face[off] = g
+            bad = off[g < 0]
+            good = off[g >= 0]
+            still = good[ed.outside(face[good], xy[good]).min(axis=1) < -1e-9 * self.size]
+            face[bad] = -1
+            face[still] = -1
+        return face, xy, h, p0
+
+    # -- results ------------------------------------------------------------------------------
+    def polylines(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """(points (N, 3), offsets, point fields, line fields) of the merged crack paths."""
+        if not self._pts:
+            empty = np.zeros(0)
+            return np.zeros((0, 3)), np.zeros(1, np.int64), \
+                {"crack__width": empty, "crack__face": empty.astype(np.int64)}, \
+                {"crack__layer": empty.astype(np.int64), "crack__type": empty.astype(np.int64)}
+        line, seq, p3, w, face = (np.concatenate(x) for x in zip(*self._pts))
+        order = np.lexsort((seq, line))
+        line, p3, w, face = line[order], p3[order], w[order], face[order]
+        ids, lay, typ, _ = (np.concatenate(x) for x in zip(*self._line_meta))
+        meta_order = np.argsort(ids)
+        lay, typ = lay[meta_order], typ[meta_order]
+        counts = np.bincount(line, minlength=self.n_lines)
+        keep_line = counts >= 2                                  # a line needs two points
+        keep_pt = keep_line[line]
+        line, p3, w, face = line[keep_pt], p3[keep_pt], w[keep_pt], face[keep_pt]
+        counts = counts[keep_line]
+        offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        return p3, offsets, {"crack__width": w, "crack__face": face}, \
+            {"crack__layer": lay[keep_line], "crack__type": typ[keep_line]}
