@@ -271,3 +271,26 @@ def test_drawn_paths_follow_the_contract():
     bc = trimesh.triangles.points_to_barycentric(sc.vertices[sc.faces[face[:-1]]], mid)
     assert np.all(bc > -1e-9)                       # every segment inside its facet
     assert face[-1] == face[-2]
+
+
+def test_stress_flowers_point_along_the_strong_axis_and_grow_with_the_intensity():
+    from procgen_cracks.sheet import stress_flowers
+
+    state = flat_state([[-0.4, 0.0, 0.01, 0.4, 0.0, 0.01]], size=0.05)
+    sc = state.get("cells")
+    spec = np.zeros((sc.n_cells, 4))
+    spec[:, 2] = np.linspace(1.0, 9.0, sc.n_cells)          # tension along the frame's y axis
+    spec[:, 0] = 1.0
+    every = 3
+    fl = stress_flowers(sc, spec, every=every)
+    picked = np.nonzero(np.all(sc.ij % every == 0, axis=1) & sc.comp_in)[0]
+    closed = np.asarray(fl.closed)
+    assert closed.sum() == len(picked) and (~closed).sum() == 4     # flowers, then the square's edges
+    stars = np.asarray(fl.points)[:16 * len(picked)].reshape(len(picked), 16, 2)
+    centre = stars.mean(axis=1)                              # the stars are centrally symmetric
+    r = np.linalg.norm(stars - centre[:, None], axis=2)
+    tips = r[:, 0::2]                                        # 8 petals: axes 0..3, then opposites
+    np.testing.assert_allclose(tips[:, :4], tips[:, 4:], rtol=1e-9)     # central symmetry
+    assert np.all(tips[:, 2] >= tips[:, 0])                  # the strong axis has the long petal
+    order = np.argsort(spec[picked, 2])
+    assert np.all(np.diff(tips[order, 2]) >= -1e-12)         # longer with more tension

@@ -300,4 +300,45 @@ class CrackSheet(RuleBase):
         return True
 
 
-RULES: list[Any] = [RenderCracks, CrackMirror, DrawCracks, CrackSheet]
+@dataclass(kw_only=True)
+class StressFlowers(RuleBase):
+    """"Stress flowers" (plate D-19): the stress spectrum as 8-petal glyphs on a flat sheet.
+
+    One star per cell on a lattice of ``every`` cells, a petal each way along the four axes of
+    the cell's facet frame, log-compressed with one scale for the object (App. C step 4); the
+    planar patches laid side by side as for the crack sheet (closed lines: the core ``svg``
+    exporter fills them).
+    """
+
+    name: ClassVar[str] = "cracks.flowers"
+    cells: str = param("cells", doc="SurfaceCells domain with stress__spectrum")
+    layer: int = param(-1, ge=-64, le=63, doc="stack layer shown (negative: from the top)")
+    flowers: str = param("stress_flowers", doc="name of the 2-D Polylines domain to create")
+    every: int = param(4, ge=1, le=1000, doc="one flower every this many cells of a facet grid")
+    size: float = param(0.45, gt=0.0, le=2.0, doc="longest petal, share of the flower spacing")
+    gap: float = param(0.08, ge=0.0, le=1.0, doc="space between panels, share of the largest panel")
+    uses: ClassVar[dict[str, str]] = {"{cells}": "SurfaceCells"}
+    creates: ClassVar[dict[str, str]] = {"{flowers}": "Polylines"}
+    default_iterations: ClassVar[int] = 1
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("stress__spectrum", domain="{cells}", at="cell", intent="in", units="1",
+                  doc="tension per layer along 0, pi/4, pi/2, 3pi/4 of the facet frame"),
+    )
+    example: ClassVar[tuple[dict, ...]] = _EXAMPLE_FLAT[:3] + (
+        {"rule": "cracks.stress", "params": {"mode": "uniform", "jitter": 0.3}},
+        {"rule": "cracks.flowers", "params": {"every": 3}},)
+
+    def step(self, state: State) -> bool:
+        from .sheet import stress_flowers
+
+        cells = state.get(self.cells)
+        spec = np.asarray(cells["stress__spectrum"], float)
+        if spec.ndim != 3 or spec.shape[2] != 4:
+            raise InputError(f"cracks.flowers: stress__spectrum must be (n, L, 4), got {spec.shape}")
+        layer = stack_layer(cells, self.layer)
+        state.add_domain(self.flowers, stress_flowers(cells, spec[:, layer], every=self.every,
+                                                      size=self.size, gap=self.gap))
+        return True
+
+
+RULES: list[Any] = [RenderCracks, CrackMirror, DrawCracks, CrackSheet, StressFlowers]
