@@ -86,8 +86,10 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
     """Entries of every loaded plugin's gallery lists (or of the file ``path``), filtered by ``only``.
 
     A list may include others (``[gallery] include = [...]``, relative to it). An entry whose
-    recipe needs a rule that no loaded plugin registers (its family is disabled or not installed)
-    is left out with a one-line note on stderr rather than failing the gallery.
+    recipe needs a rule that no loaded plugin registers (its family is disabled or not installed),
+    or whose recipe no loaded plugin ships (a family listing plates that live in another
+    family's recipe folder), is left out with a one-line note on stderr rather than failing the
+    gallery.
     """
     files = []
     for main in [path] if path else host.gallery_lists():
@@ -106,6 +108,11 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
             if e.slug in seen:
                 raise RecipeError(f"{p.name}: entry[{i}]: id {e.slug!r} is used twice; give one an 'id'")
             seen.add(e.slug)
+            if e.recipe not in recipes and not e.recipe.endswith(".toml"):   # not a file: a name
+                # that no loaded plugin ships (its folder's plugin is disabled, or a typo)
+                print(f"gallery: left out {e.slug}: no loaded plugin ships recipe {e.recipe}",
+                      file=sys.stderr)
+                continue
             missing = rules_missing(recipes[e.recipe], host) if e.recipe in recipes else []
             if missing:
                 print(f"gallery: left out {e.slug}: recipe {e.recipe} needs {', '.join(missing)} "
