@@ -7,13 +7,15 @@ from procgen.data import shipping_hooks
 def procgen_register_rules():
     from .imposed import ImposedCracks
     from .peel import Peel
+    from .render_rules import RULES as RENDER_RULES
     from .rules import RULES
-    return [*RULES, ImposedCracks, Peel]
+    return [*RULES, *RENDER_RULES, ImposedCracks, Peel]
 
 
 @hookimpl
 def procgen_register_exporters():
-    return []
+    from .exporters import EXPORTERS as RENDER_EXPORTERS
+    return [*RENDER_EXPORTERS]
 
 
 procgen_recipe_dirs, procgen_gallery_lists = shipping_hooks(__file__, (), ("cracks.toml",))

@@ -36,7 +36,11 @@ class Atlas:
 
 def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
                texels: int = 2, pad: int = 1) -> Atlas:
-    """Shelf-pack the face grids and paint each cell's colour (alpha 0 on holes)."""
+    """Shelf-pack the face grids and paint each cell's colour (alpha 0 on holes).
+
+    ``rgb``: (n, 3) one colour per cell, or (n, texels, texels, 3) one per texel [cell, x, y]
+    (x along the facet frame's ex, y along ey), e.g. anti-aliased crack micro-cells.
+    """
     nx, ny = cells.nx, cells.ny
     w_f, h_f = nx * texels + 2 * pad, ny * texels + 2 * pad
     use = nx > 0
@@ -59,7 +63,7 @@ def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
     for dy in range(k):                                        # k*k texel offsets, vectorised
         for dx in range(k):
             yy, xx = base[:, 1] + dy, base[:, 0] + dx
-            img[yy, xx, :3] = rgb
+            img[yy, xx, :3] = rgb if rgb.ndim == 2 else rgb[:, dx, dy]
             img[yy, xx, 3] = alive.astype(float)
             filled[yy, xx] = True
     # bleed colours into unused texels so bilinear filtering never picks up black

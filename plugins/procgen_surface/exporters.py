@@ -70,15 +70,23 @@ def _colors(sc: SurfaceCells, field: str) -> np.ndarray:
 
 def build_export(sc: SurfaceCells, *, color_by: str = "surface__color", texels: int = 2,
                  cells_per_segment: float = 4.0, exaggerate: float = 0.02,
-                 max_triangles: int = 1_500_000, textured: bool = True):
-    """(DisplacedMesh, Atlas | None) of a SurfaceCells domain."""
+                 max_triangles: int = 1_500_000, textured: bool = True,
+                 texel_rgb: np.ndarray | None = None):
+    """(DisplacedMesh, Atlas | None) of a SurfaceCells domain.
+
+    ``texel_rgb`` (n, t, t, 3): per-texel colours painted into the atlas instead of the cells'
+    flat colours (t texels per cell side), e.g. the crack family's micro-cells.
+    """
     if texels < 1 or texels > 16:
         raise InputError(f"surface export: texels must be in 1..16, got {texels}")
     if cells_per_segment <= 0:
         raise InputError("surface export: cells_per_segment must be > 0")
     rgb = _colors(sc, color_by)
     alive = sc.alive()
-    atlas = pack_atlas(sc, rgb, alive, texels=texels) if textured else None
+    if texel_rgb is not None:
+        atlas = pack_atlas(sc, texel_rgb, alive, texels=texel_rgb.shape[1])
+    else:
+        atlas = pack_atlas(sc, rgb, alive, texels=texels) if textured else None
     level = subdivision_level(sc, cells_per_segment, max_triangles)
     mesh = displaced_mesh(sc, _heights(sc), rgb, alive, atlas, level=level, exaggerate=exaggerate)
     return mesh, atlas

@@ -1,0 +1,334 @@
+"""Anti-aliased multi-thickness linked segments on micro-cells (3DSCA thesis 5.2.5.a, App. B 2).
+
+A crack is finer than a cell, so the thesis subdivides every cracked cell into k x k micro-cells
+and gives each one a "crack coverage" in [0, 1] (Figure 5.14, Table 5.2, plate 5.4).  Across the
+crack the intensity follows a width profile f(x) (x = distance from the path, C_t = crack width,
+C_s = micro-cell side).  App. B 2.2.2 normalises every profile so that the central micro-cell is
+fully covered, int_0^{C_s/2} f = 1/2 ("V" types) or int_d^{d+C_s/2} f = 1/2 ("U" types, which
+saturate at 1/C_s over the central half-width d = (C_t/2) C%):
+
+    V linear       f = k (C_t/2 - x)        k = 2 / (C_s (C_t - C_s/2))
+    V parabolic A  f = k (C_t^2/4 - x^2)    k = 4 / (C_s (C_t^2 - C_s^2/3))
+    V parabolic B  f = k (x - C_t/2)^2      k = 4 / (C_s (C_t^2 - C_t C_s + C_s^2/3))
+    U linear       f = k (C_t/2 - x)        k = 1 / (C_s (C_t/2 - C_s/4 - d))
+    U parabolic A  f = k (C_t^2/4 - x^2)    k = 1 / (C_s (C_t^2/4 - C_s^2/12 - d (d + C_s/2)))
+    U parabolic B  f = k (x - C_t/2)^2      k = 1 / (C_s ((C_s^2/3 + C_t^2 - C_s C_t)/4 + d (d + C_s/2 - C_t)))
+
+(the last constant's printed "+ C_s C_t" contradicts the integral; the "-" sign is the one that
+satisfies it, which tests/test_crack_render.py checks for all six).  The "constant" profile is
+f = 1/C_s inside the band: the micro-cell value is then exactly the area fraction it shares with
+a band of width C_t.  A V or U normalisation needs the profile to span the central micro-cell
+(C_t >= C_s, resp. C_t (1 - C%) >= C_s); thinner cracks use the constant profile, which is the
+exact area fraction of a hairline.
+
+The thesis approximates the coverage double integral by the clipped lengths of l offset lines
+(sum of f(X_i) dx dl / C_s).  Here the same integral, (1/C_s) \\iint_cell f(dist) dA, is evaluated
+exactly for a straight segment: the micro-cell's chord length at normal offset t is a trapezoid,
+f is piecewise polynomial, so a 3-point Gauss-Legendre rule per piece between the breakpoints is
+exact.  Everything is numpy over all (segment piece, micro-cell) pairs; several pieces over one
+micro-cell combine by their maximum.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from procgen.errors import InputError
+from procgen.geometry import orient2d as geo_orient
+
+PROFILES = ("constant", "v_linear", "v_parabolic_a", "v_parabolic_b",
+            "u_linear", "u_parabolic_a", "u_parabolic_b")
+
+_GL_X = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+_GL_W = np.array([5.0, 8.0, 5.0]) / 9.0
+_PAIR_CHUNK = 200_000            # (piece, micro-cell) pairs evaluated at once
+
+
+def _check_profile(profile: str) -> None:
+    if profile not in PROFILES:
+        raise InputError(f"crack profile must be one of {', '.join(PROFILES)}; got {profile!r}")
+
+
+def profile_constants(ct: np.ndarray, cs: float, profile: str,
+                      saturation: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(k, d, constant) per crack width: App. B 2.2.2 constant, U half-width, fallback mask."""
+    _check_profile(profile)
+    ct = np.asarray(ct, dtype=float)
+    u = profile.startswith("u_")
+    d = 0.5 * ct * saturation if u else np.zeros_like(ct)
+    usable = (ct * (1.0 - saturation) >= cs) if u else (ct >= cs)
+    constant = ~usable | (profile == "constant")
+    if profile in ("constant",):
+        den = np.ones_like(ct) * cs
+    elif profile == "v_linear":
+        den = 0.5 * cs * (ct - 0.5 * cs)
+    elif profile == "v_parabolic_a":
+        den = 0.25 * cs * (ct ** 2 - cs ** 2 / 3.0)
+    elif profile == "v_parabolic_b":
+        den = 0.25 * cs * (ct ** 2 - ct * cs + cs ** 2 / 3.0)
+    elif profile == "u_linear":
+        den = cs * (0.5 * ct - 0.25 * cs - d)
+    elif profile == "u_parabolic_a":
+        den = cs * (0.25 * ct ** 2 - cs ** 2 / 12.0 - d * (d + 0.5 * cs))
+    else:
+        den = cs * (0.25 * (cs ** 2 / 3.0 + ct ** 2 - cs * ct) + d * (d + 0.5 * cs - ct))
+    k = np.where(constant, 1.0 / cs, 1.0 / np.where(constant, 1.0, den))
+    return k, np.where(constant, 0.0, d), constant
+
+
+def profile_density(x: np.ndarray, ct: np.ndarray, cs: float, profile: str,
+                    saturation: float = 0.5) -> np.ndarray:
+    """f(|x|) per unit width (1/length) at distance ``x`` from the path of a crack ``ct`` wide."""
+    x = np.abs(np.asarray(x, dtype=float))
+    ct = np.broadcast_to(np.asarray(ct, dtype=float), x.shape)
+    k, d, constant = profile_constants(ct, cs, profile, saturation)
+    h = 0.5 * ct
+    if profile.endswith("linear"):
+        shape = h - x
+    elif profile.endswith("parabolic_a"):
+        shape = h ** 2 - x ** 2
+    elif profile.endswith("parabolic_b"):
+        shape = (x - h) ** 2
+    else:
+        shape = np.ones_like(x)
+    f = np.where(constant, 1.0 / cs, k * shape)
+    f = np.where(~constant & (x <= d), 1.0 / cs, f)          # U types: saturated centre
+    return np.where(x <= h, f, 0.0)
+
+
+def _chord(t: np.ndarray, cs: float, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Length of a square (side cs) cut by a line at normal offset ``t`` from its centre.
+
+    The line's direction has |cos| = c and |sin| = s against the square's axes: a trapezoid in t
+    of area cs^2, flat (cs / max(c, s)) up to cs |c - s| / 2, zero beyond cs (c + s) / 2.
+    """
+    h = 0.5 * cs * (c + s)
+    top = cs / np.maximum(c, s)
+    ramp = (h - np.abs(t)) / np.maximum(c * s, 1e-12)
+    return np.clip(np.minimum(top, ramp), 0.0, None)
+
+
+def band_coverage(dist: np.ndarray, c: np.ndarray, s: np.ndarray, ct: np.ndarray, cs: float,
+                  profile: str, saturation: float = 0.5) -> np.ndarray:
+    """Coverage (1/C_s) \\iint_cell f(dist) dA of a micro-cell by a straight crack, in [0, 1].
+
+    ``dist``: distance of the micro-cell centre from the crack's centre line; ``c``, ``s``: |cos|
+    and |sin| of the crack direction in the micro-grid's axes; ``ct``: crack width.
+    """
+    dist, c, s, ct = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (dist, c, s, ct)))
+    _, d, constant = profile_constants(ct, cs, profile, saturation)
+    h = 0.5 * cs * (c + s)
+    g = 0.5 * cs * np.abs(c - s)
+    half = 0.5 * ct
+    zero = np.zeros_like(dist)
+    bp = np.stack([dist - h, dist - g, dist + g, dist + h, -half, -d, zero, d, half], axis=-1)
+    bp = np.sort(np.clip(bp, (dist - h)[..., None], (dist + h)[..., None]), axis=-1)
+    lo, hi = bp[..., :-1], bp[..., 1:]                               # (..., 8) pieces
+    mid, rad = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    x = mid[..., None] + rad[..., None] * _GL_X                     # (..., 8, 3)
+    ex = (..., None, None)
+    f = profile_density(x, ct[ex], cs, profile, saturation)
+    chord = _chord(x - dist[ex], cs, c[ex], s[ex])
+    total = np.sum(f * chord * _GL_W * rad[..., None], axis=(-1, -2))
+    return np.clip(total / cs, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Segments:
+    """Crack segments in facet frames: face, endpoints (2-D), widths at the endpoints."""
+
+    face: np.ndarray    # (S,) facet
+    a: np.ndarray       # (S, 2) start in the facet's 2-D frame
+    b: np.ndarray       # (S, 2) end
+    wa: np.ndarray      # (S,) width at a
+    wb: np.ndarray      # (S,) width at b
+
+    def __len__(self) -> int:
+        return len(self.face)
+
+    def select(self, keep: np.ndarray) -> "Segments":
+        return Segments(self.face[keep], self.a[keep], self.b[keep], self.wa[keep], self.wb[keep])
+
+    def shifted(self, offset: np.ndarray) -> "Segments":
+        """The segments moved by per-segment 2-D offsets (mirror bands)."""
+        return Segments(self.face, self.a + offset, self.b + offset, self.wa, self.wb)
+
+    def with_width(self, width: np.ndarray) -> "Segments":
+        return Segments(self.face, self.a, self.b, width, width)
+
+    def concat(self, other: "Segments") -> "Segments":
+        return Segments(*(np.concatenate([getattr(self, k), getattr(other, k)])
+                          for k in ("face", "a", "b", "wa", "wb")))
+
+    def split(self, max_len: float) -> "Segments":
+        """Pieces no longer than ``max_len`` (bounds the micro-cells each piece can touch)."""
+        length = np.linalg.norm(self.b - self.a, axis=1)
+        n = np.maximum(np.ceil(length / max_len).astype(np.int64), 1)
+        seg = np.repeat(np.arange(len(self)), n)
+        start = np.repeat(np.cumsum(n) - n, n)
+        t0 = (np.arange(len(seg)) - start) / n[seg]
+        t1 = t0 + 1.0 / n[seg]
+        a, b, wa, wb = self.a[seg], self.b[seg], self.wa[seg], self.wb[seg]
+        return Segments(self.face[seg], a + t0[:, None] * (b - a), a + t1[:, None] * (b - a),
+                        wa + t0 * (wb - wa), wa + t1 * (wb - wa))
+
+
+def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ab = b - a
+    t = np.clip(np.sum((p - a) * ab, 1) / np.maximum(np.sum(ab * ab, 1), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p - a - t[:, None] * ab, axis=1)
+
+
+def unfold_across_edges(cells, seg: Segments, reach: np.ndarray) -> Segments:
+    """Copies of the pieces whose band reaches a facet edge, unfolded into the facet across it.
+
+    A crack wider than its distance to a facet edge also covers the neighbour facet's micro-cells
+    (the thesis drops that share, Figure 5.14; with smooth bands the cut shows).  The neighbour's
+    frame is reached by the rigid map (a rotation, a reflection when the two frames have opposite
+    handedness) that takes the shared edge onto itself and puts the facets on opposite sides:
+    the thesis's unfolding of a facet pair (3DSCA edge communication).
+    """
+    from procgen.domains.trimesh_domain import edge_table
+
+    f = cells.faces
+    _, fe, ef, _ = edge_table(f, cells.valid)
+    c2 = cells.corners2d
+    idx = np.repeat(np.arange(len(seg)), 3)
+    fa = seg.face[idx]
+    k = np.tile(np.arange(3), len(seg))
+    e = fe[fa, k]
+    fb = np.where(ef[e, 0] == fa, ef[e, 1], ef[e, 0])
+    pa, qa = c2[fa, k], c2[fa, (k + 1) % 3]
+    a, b = seg.a[idx], seg.b[idx]
+    near = np.minimum.reduce([_point_segment_distance(a, pa, qa), _point_segment_distance(b, pa, qa),
+                              _point_segment_distance(pa, a, b), _point_segment_distance(qa, a, b)])
+    use = (fb >= 0) & (near <= reach[idx])
+    idx, fa, fb, k, pa, qa = idx[use], fa[use], fb[use], k[use], pa[use], qa[use]
+    vp, vq = f[fa, k], f[fa, (k + 1) % 3]
+    rows = np.arange(len(fb))
+    pb = c2[fb, np.argmax(f[fb] == vp[:, None], axis=1)]
+    qb = c2[fb, np.argmax(f[fb] == vq[:, None], axis=1)]
+    ang = np.arctan2(*(qb - pb)[:, ::-1].T) - np.arctan2(*(qa - pa)[:, ::-1].T)
+    cos, sin = np.cos(ang), np.sin(ang)
+
+    def rotate(x: np.ndarray) -> np.ndarray:
+        d = x - pa
+        return pb + np.column_stack([cos * d[:, 0] - sin * d[:, 1], sin * d[:, 0] + cos * d[:, 1]])
+
+    third_a = rotate(c2[fa, (k + 2) % 3])
+    third_b = c2[fb][rows, 3 - np.argmax(f[fb] == vp[:, None], axis=1) - np.argmax(f[fb] == vq[:, None], axis=1)]
+    same_side = geo_orient(pb, qb, third_a) * geo_orient(pb, qb, third_b) > 0
+    u = (qb - pb) / np.maximum(np.linalg.norm(qb - pb, axis=1, keepdims=True), 1e-300)
+
+    def unfold(x: np.ndarray) -> np.ndarray:
+        y = rotate(x)
+        d = y - pb
+        mirrored = pb + 2.0 * np.sum(d * u, 1)[:, None] * u - d
+        return np.where(same_side[:, None], mirrored, y)
+
+    return Segments(fb, unfold(seg.a[idx]), unfold(seg.b[idx]), seg.wa[idx], seg.wb[idx])
+
+
+def _spans(seg: Segments, reach: np.ndarray, cells, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """First micro-cell (x, y) and micro-cell counts (x, y) of each piece's padded bounding box."""
+    cs = cells.size / k
+    lo = np.floor((np.minimum(seg.a, seg.b) - reach[:, None]) / cs).astype(np.int64)
+    hi = np.floor((np.maximum(seg.a, seg.b) + reach[:, None]) / cs).astype(np.int64)
+    top = np.column_stack([cells.nx[seg.face], cells.ny[seg.face]]) * k - 1
+    lo, hi = np.clip(lo, 0, top), np.clip(hi, 0, top)
+    return lo, np.where(top >= 0, hi - lo + 1, 0)
+
+
+def _pairs(seg: Segments, reach: np.ndarray, cells, k: int) -> tuple[np.ndarray, ...]:
+    """(piece, micro x, micro y) of every micro-cell within ``reach`` of a piece's bounding box."""
+    lo, span = _spans(seg, reach, cells, k)
+    cnt = span[:, 0] * span[:, 1]
+    idx = np.repeat(np.arange(len(seg)), cnt)
+    local = np.arange(len(idx)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    wx = span[idx, 0]
+    return idx, lo[idx, 0] + local % wx, lo[idx, 1] + local // wx
+
+
+def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
+                   saturation: float = 0.5, faces: np.ndarray | None = None) -> np.ndarray:
+    """(n_cells, k, k) float32 coverage of every micro-cell [cell, x, y] by the segments.
+
+    The subdivided ("cracked") cells are those the crack band overlaps: the cells on the path
+    and, where a crack is wider than its distance to a cell border, the neighbour it reaches
+    (other cells stay 0).  A band reaching over a facet edge continues on the neighbour facet
+    (:func:`unfold_across_edges`); micro-cells outside their triangle are computed but never
+    shown (Figure 5.14's pink micro-cells).  ``faces`` (m,) bool: facets that may be drawn on
+    (the crack mirror's front-lit facets); default all.
+    """
+    _check_profile(profile)
+    out = np.zeros(cells.n_cells * k * k, np.float32)
+    keep = (np.linalg.norm(seg.b - seg.a, axis=1) > 0) & (np.maximum(seg.wa, seg.wb) > 0)
+    pieces = seg.select(keep).split(cells.size)
+    if len(pieces) == 0:
+        return out.reshape(cells.n_cells, k, k)
+    cs = cells.size / k
+    reach = 0.5 * np.maximum(pieces.wa, pieces.wb) + cs
+    spill = unfold_across_edges(cells, pieces, reach)
+    pieces = pieces.concat(spill)
+    if faces is not None:
+        pieces = pieces.select(np.asarray(faces, bool)[pieces.face])
+    if len(pieces) == 0:
+        return out.reshape(cells.n_cells, k, k)
+    reach = 0.5 * np.maximum(pieces.wa, pieces.wb) + cs
+    span = _spans(pieces, reach, cells, k)[1]
+    cum = np.cumsum(span[:, 0] * span[:, 1])
+    cuts = np.searchsorted(cum, np.arange(_PAIR_CHUNK, cum[-1], _PAIR_CHUNK))
+    edges = np.unique(np.concatenate([[0], cuts, [len(pieces)]]))
+    for start, stop in zip(edges[:-1], edges[1:]):          # chunks of pieces: bounded memory
+        part = pieces.select(np.arange(start, stop))
+        _accumulate(out, cells, part, reach[start:stop], k, cs, profile, saturation)
+    return out.reshape(cells.n_cells, k, k)
+
+
+def _accumulate(out: np.ndarray, cells, seg: Segments, reach: np.ndarray, k: int, cs: float,
+                profile: str, saturation: float) -> None:
+    idx, mx, my = _pairs(seg, reach, cells, k)
+    face = seg.face[idx]
+    cell = cells.layout.cell_at(face, mx // k, my // k)
+    ok = cell >= 0
+    idx, mx, my, cell = idx[ok], mx[ok], my[ok], cell[ok]
+    p = (np.column_stack([mx, my]) + 0.5) * cs
+    a, b = seg.a[idx], seg.b[idx]
+    ab = b - a
+    ln2 = np.sum(ab * ab, axis=1)
+    t = np.clip(np.sum((p - a) * ab, axis=1) / ln2, 0.0, 1.0)
+    dist = np.linalg.norm(p - (a + t[:, None] * ab), axis=1)
+    width = seg.wa[idx] + t * (seg.wb[idx] - seg.wa[idx])
+    ln = np.sqrt(ln2)
+    cov = band_coverage(dist, np.abs(ab[:, 0]) / ln, np.abs(ab[:, 1]) / ln, width, cs,
+                        profile, saturation)
+    flat = (cell * k + mx % k) * k + my % k
+    np.maximum.at(out, flat, cov.astype(np.float32))
+
+
+def facet_segments(cells, points: np.ndarray, offsets: np.ndarray, face: np.ndarray,
+                   width: np.ndarray, lines: np.ndarray | None = None) -> Segments:
+    """Segments of crack polylines in their facets' 2-D frames (the contract's ``crack__face``).
+
+    Segment i -> i+1 of a line lies in facet ``face[i]``; both ends are expressed in that frame.
+    ``lines``: restrict to these line indices (e.g. the cracks of one layer).
+    """
+    n_pts = len(points)
+    line_of = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
+    start = np.ones(n_pts, bool)
+    start[offsets[1:] - 1] = False                     # the last point of a line starts nothing
+    if lines is not None:
+        start &= np.isin(line_of, lines)
+    i = np.nonzero(start)[0]
+    f = np.asarray(face, dtype=np.int64)[i]
+    bad = (f < 0) | (f >= cells.n_faces)
+    if bad.any():
+        raise InputError(f"crack paths: crack__face {int(f[bad][0])} is not a facet of the cells "
+                         f"(0..{cells.n_faces - 1})")
+    fr = cells.layout.frames
+    a = fr.to_2d(f, points[i])
+    b = fr.to_2d(f, points[i + 1])
+    w = np.asarray(width, dtype=float)
+    return Segments(f, a, b, w[i], w[i + 1])
+
