@@ -255,3 +255,29 @@ def test_resolution_changes_detail_not_size():
 
     fine, coarse = stats(4.0), stats(6.0)
     assert np.all(np.abs(coarse / fine - 1.0) < 0.2), (fine, coarse)
+
+
+def test_thesis_literal_head_on_merges(topo):
+    """merge = "head_on" (thesis section 3.2.2): a snaxel heading into a vertex just entered lives
+    on until it meets the child sent back along its edge; meanwhile the pair shares one edge,
+    moving towards each other, and the outline stays a simple CCW polygon that only grows. The
+    topology ends as with immediate merges: no snaxel left heading into a visited vertex."""
+    g = CloudGrowth(topo, small_cfg(n_c=2, merge="head_on"), np.random.default_rng(3))
+    prev, pairs_seen = None, 0
+    while g.step():
+        s = g.snake
+        u, v = s.ints[:, U], s.ints[:, V]
+        pair = (u == np.roll(v, -1)) & (v == np.roll(u, -1))
+        pairs_seen += int(pair.sum())
+        # a pair is two neighbours on one edge, not met yet; every other snaxel heads out
+        assert np.all(s.flts[pair, 0] + np.roll(s.flts[:, 0], -1)[pair] < s.flts[pair, 2])
+        lone = ~(pair | np.roll(pair, 1))
+        assert np.all(s.state[v[lone]] == UNVISITED)
+        poly = Polygon(s.xy())
+        assert poly.is_valid and poly.exterior.is_ccw
+        if prev is not None:
+            assert prev.area <= poly.area + 1e-6
+        prev = poly
+    assert pairs_seen > 100 and g.snake.merges > 0
+    immediate = CloudGrowth(topo, small_cfg(n_c=2), np.random.default_rng(3)).run()
+    assert 0.5 < prev.area / Polygon(immediate.snake.xy()).area < 2.0

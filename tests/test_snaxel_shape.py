@@ -56,3 +56,52 @@ def test_sweep_reports_the_fractal_dimension_in_band(tmp_path, host):
     assert stats["runs"] == 3 and stats["D_area_decades"] > 1.5 and stats["D_outlines"] > 30
     assert 1.2 < stats["D"] < 1.8, stats
     assert 0 < stats["solidity_min"] <= stats["solidity_max"] <= 1
+
+
+def _centre_x(policy: str, seed: int, guide) -> float:
+    """Horizontal offset of the final outline's area centroid from the source (x = 0)."""
+    from shapely.geometry import Polygon
+
+    cfg = GrowthParams(**dict(SMALL, radius=2.0), n_c=4, seed_policy=policy, seed_bias=8.0, seed_from="any",
+                       **({"guide_strokes": [[-300.0, -50.0, -300.0, 50.0]]} if policy == "sketch" else {"guide_grid": "g"}))
+    g = CloudGrowth(TiledTopology(cfg.radius, 32.0, np.random.SeedSequence(seed)), cfg, np.random.default_rng(seed),
+                    guide=guide).run()
+    return Polygon(g.snake.xy()).centroid.x
+
+
+def test_a_user_field_or_sketch_draws_the_next_clusters_towards_it():
+    """A guide field rising to the right pulls the cloud right; a guide stroke far on the left
+    pulls it left (same seeds, the same growth otherwise)."""
+    import shapely
+
+    ramp = lambda p: p[:, 0]                                                      # noqa: E731
+    line = shapely.MultiLineString([[(-300.0, -50.0), (-300.0, 50.0)]])
+    stroke = lambda p: -shapely.distance(shapely.points(p), line)                  # noqa: E731
+    right, left = _centre_x("field", 1, ramp), _centre_x("sketch", 1, stroke)
+    assert right > 5.0 and left < -5.0, (right, left)
+
+
+def _check(tmp_path, host, extra: str) -> str:
+    from procgen import RecipeError
+    from procgen.recipes import check_recipe, load_recipe
+
+    p = tmp_path / "r.toml"
+    p.write_text(f'[recipe]\nname = "r"\n\n[[steps]]\nrule = "snaxel.grow"\nuntil = "stable"\n'
+                 f'[steps.params]\nradius = 1.0\ng_min = 60.0\ng_max = 62.5\nt_max = 37.5\n{extra}\n')
+    with pytest.raises(RecipeError) as err:
+        check_recipe(load_recipe(p, host), host)
+    msg = str(err.value)
+    assert "\n" not in msg
+    return msg
+
+
+def test_procgen_check_refuses_bad_seed_policies_in_one_line(tmp_path, host):
+    assert "seed_policy" in _check(tmp_path, host, 'seed_policy = "tallest"')
+    assert "guide_grid" in _check(tmp_path, host, 'seed_policy = "field"')
+    assert "guide_strokes or guide_svg" in _check(tmp_path, host, 'seed_policy = "sketch"')
+    assert "ignores it" in _check(tmp_path, host, 'guide_strokes = [[0, 0, 10, 10]]')
+    svg = tmp_path / "empty.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><text>hi</text></svg>')
+    assert "no stroke" in _check(tmp_path, host, f'seed_policy = "sketch"\nguide_svg = "{svg}"\n'
+                                                 'bounds = [0.0, 0.0, 300.0, 300.0]')
+    assert "'nowhere'" in _check(tmp_path, host, 'seed_policy = "field"\nguide_grid = "nowhere"')

@@ -7,6 +7,7 @@ and c_min; Python only for the few curves that split or merge) and cluster contr
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 from shapely.geometry import Polygon
@@ -65,7 +66,7 @@ class CloudGrowth:
 
     def __init__(self, topo: Topology, cfg: GrowthParams, rng: np.random.Generator,
                  bounds: tuple[float, float, float, float] | None = None,
-                 marked: np.ndarray | None = None) -> None:
+                 marked: np.ndarray | None = None, guide: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
         self.cfg = cfg
         self.limits = cfg.check_growth()
         self.topo = topo
@@ -74,6 +75,7 @@ class CloudGrowth:
             bounds = (float(pts[:, 0].min()), float(pts[:, 1].min()), float(pts[:, 0].max()), float(pts[:, 1].max()))
         self.bounds = bounds
         self.snake = Snake(topo, self.blocks)
+        self.snake.head_on = cfg.merge == "head_on"
         # independent streams: curve speeds, split points, cluster choices (digest property 22)
         self.rng_speed, self.rng_split, self.rng_cluster = rng.spawn(3)
         self.vb = np.zeros(0)
@@ -81,6 +83,7 @@ class CloudGrowth:
         self.cluster_of = np.zeros(0, np.int64)
         self.n_curves = 0
         self.marked = marked
+        self.guide = guide     # points (k, 2) -> attraction (higher = preferred) for seed_policy field / sketch
         self.phase = "sketch" if marked is not None else "grow"
         if marked is not None:
             cand = np.flatnonzero(marked & ~self.snake.blocked)
@@ -330,6 +333,9 @@ class CloudGrowth:
         f[:, POS] += adv
         if self.phase == "grow":
             f[:, T] += adv
+        dead = snake.collide() if snake.head_on else None
+        if dead is not None:
+            f, v, pos_old = snake.flts, v[~dead], pos_old[~dead]
         arrived = np.flatnonzero(f[:, POS] >= f[:, ELEN])
         if len(arrived):
             when = (f[arrived, ELEN] - pos_old[arrived]) / v[arrived]
@@ -433,7 +439,8 @@ class CloudGrowth:
         the silhouette and leaves its control to future work (Chapter 5); here a curve's weight is
         exp(seed_bias * score), the score in [0, 1] measured on the curve's mid-point against the
         cloud's box: height above the base (towers), closeness to the centroid (compact heaps) or
-        horizontal distance from the centroid (spreading sheets)."""
+        horizontal distance from the centroid (spreading sheets); or the user's ``guide`` (a field
+        sampled at the mid-point, or closeness to guide strokes), ranged over the candidates."""
         policy, bias = self.cfg.seed_policy, self.cfg.seed_bias
         if policy == "uniform" or bias == 0.0 or len(cand) < 2:
             return None
@@ -447,8 +454,12 @@ class CloudGrowth:
             score = (mid[:, 1] - lo[1]) / size[1]
         elif policy == "centroid":
             score = 1.0 - np.hypot(*((mid - centre) / size).T) / np.sqrt(0.5)
-        else:   # spread
+        elif policy == "spread":
             score = np.abs(mid[:, 0] - centre[0]) / (0.5 * size[0])
+        else:   # field / sketch: the user's guide, ranged over the candidates
+            a = np.asarray(self.guide(mid), np.float64)
+            span = float(a.max() - a.min())
+            score = (a - a.min()) / span if span > 0 else np.ones(len(a))
         w = np.exp(bias * (np.clip(score, 0.0, 1.0) - 1.0))
         return w / w.sum()
 

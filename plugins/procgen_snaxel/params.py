@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from procgen import RuleBase, param
+from procgen import FieldSpec, RuleBase, param
 
 from .tables import THESIS_TABLES, LengthLimits, parse_table
 
@@ -18,7 +18,7 @@ _EXAMPLE_GROWTH: dict[str, Any] = {"bounds": [0.0, 0.0, 100.0, 100.0], "radius":
                                    "table": [[0, 5, 40], [5, 8]], "t_max": 5.0, "g_min": 12.0, "g_max": 14.0,
                                    "n_c": 2, "margin": 3.0, "c_min": 0.5}
 
-SEED_POLICIES = ("uniform", "height", "centroid", "spread")
+SEED_POLICIES = ("uniform", "height", "centroid", "spread", "field", "sketch")
 
 
 @dataclass(kw_only=True)
@@ -51,10 +51,20 @@ class GrowthParams(RuleBase):
                            doc="next cluster's seed: a curve of the cluster just stopped (thesis) or of the whole snake")
     seed_policy: str = param("uniform", choices=SEED_POLICIES,
                              doc="weights of the candidate seed curves: uniform (thesis), height (high curves), "
-                                 "centroid (curves near the cloud's centroid), spread (curves far out sideways)")
+                                 "centroid (curves near the cloud's centroid), spread (curves far out sideways), "
+                                 "field (high guide_field values), sketch (curves near the guide strokes)")
     seed_bias: float = param(4.0, ge=0.0, le=50.0, doc="strength of a non-uniform seed_policy (0: uniform)")
+    guide_grid: str | None = param(None, doc="seed_policy = field: the Grid holding guide_field")
+    guide_field: str = param("image__value", doc="seed_policy = field: Grid cell field, higher = next clusters grow there")
+    guide_strokes: list[list[float]] | None = param(None, doc="seed_policy = sketch: strokes [x0, y0, x1, y1, ...] "
+                                                              "that draw the next clusters near them")
+    guide_svg: str | None = param(None, doc="seed_policy = sketch: SVG whose strokes draw the next clusters near "
+                                            "them (its viewBox mapped onto bounds)")
     condensation_level: float | None = param(None, units="length",
                                              doc="flat base: snaxels heading below this height stop; None: no base")
+    merge: str = param("immediate", choices=("immediate", "head_on"),
+                       doc="immediate: snaxels heading into a vertex just entered die at once (same topology); "
+                           "head_on: thesis-literal, they die when they collide with a child sent back at them")
     dt: float = param(0.05, gt=0.0, le=10.0, units="time", doc="Euler time step")
     source: list[float] | None = param(None, doc="[x, y] of the source vertex; None: domain centre (origin if unbounded)")
     margin: float = param(10.0, ge=0.0, units="length", doc="snaxels heading closer than this to the border stop")
@@ -72,7 +82,15 @@ class GrowthParams(RuleBase):
     uses: ClassVar[dict[str, str]] = {"{mesh}": "TriMesh"}
 
     def domains_used(self) -> dict[str, str]:
-        return {} if self.mesh is None else super().domains_used()
+        used = {} if self.mesh is None else super().domains_used()
+        if self.guide_grid is not None:
+            used[self.guide_grid] = "Grid"
+        return used
+
+    def field_specs(self) -> list[FieldSpec]:
+        guide = [FieldSpec(self.guide_field, self.guide_grid, "cell", "in", doc="seed-curve guide")] \
+            if self.guide_grid is not None else []
+        return super().field_specs() + guide
 
     def validate(self) -> None:
         self.check_growth()
@@ -96,12 +114,31 @@ class GrowthParams(RuleBase):
                     raise ValueError(f"strokes[{i}]: need [x0, y0, x1, y1, ...] with >= 2 points")
         if self.strokes is not None and self.sketch_svg is not None:
             raise ValueError("give strokes or sketch_svg, not both")
+        self._check_guide()
         if self.mesh is None and self.tile_side < 2.0 * self.radius:
             raise ValueError(f"tile = {self.tile_side:g} must be at least 2 x radius = {2 * self.radius:g}")
         if self.bounds is not None:
             if len(self.bounds) != 4 or not (self.bounds[2] > self.bounds[0] and self.bounds[3] > self.bounds[1]):
                 raise ValueError(f"bounds {self.bounds} must be [x0, y0, x1, y1] with x1 > x0 and y1 > y0")
         return parse_table(self.table, "table")
+
+    def _check_guide(self) -> None:
+        """The guide a seed_policy of field or sketch needs, and no guide another policy would ignore."""
+        strokes = self.guide_strokes is not None or self.guide_svg is not None
+        if self.seed_policy == "field" and self.guide_grid is None:
+            raise ValueError("seed_policy = 'field' needs guide_grid (a Grid whose guide_field scores the seed curves)")
+        if self.seed_policy == "sketch" and not strokes:
+            raise ValueError("seed_policy = 'sketch' needs guide_strokes or guide_svg")
+        if self.guide_strokes is not None and self.guide_svg is not None:
+            raise ValueError("give guide_strokes or guide_svg, not both")
+        if self.guide_svg is not None and self.bounds is None:
+            raise ValueError("guide_svg needs bounds = [x0, y0, x1, y1] to map its viewBox onto")
+        for i, s in enumerate(self.guide_strokes or []):
+            if len(s) < 4 or len(s) % 2:
+                raise ValueError(f"guide_strokes[{i}]: need [x0, y0, x1, y1, ...] with >= 2 points")
+        if (self.guide_grid is not None and self.seed_policy != "field") or (strokes and self.seed_policy != "sketch"):
+            raise ValueError(f"a guide is given but seed_policy = {self.seed_policy!r} ignores it "
+                             "(field uses guide_grid, sketch uses guide_strokes / guide_svg)")
 
     @property
     def tile_side(self) -> float:

@@ -4,16 +4,17 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from procgen import FieldSpec, InputError, Polylines, State, TriMesh, param
+from procgen import FieldSpec, Grid, InputError, Polylines, State, TriMesh, param
 
 from .fractal import ensemble_dimension
 from .growth import CloudGrowth, Snapshot
 from .params import _EXAMPLE_GROWTH, GrowthParams
 from .sketch import check_inside, mark_vertices, strokes_from_lists, strokes_from_svg
+from .tile_poisson import kernel
 from .tiles import TiledTopology
 from .topology import Topology, mesh_topology
 
@@ -31,6 +32,8 @@ class GrowthRule(GrowthParams):
             if room < self.g_min:
                 raise ValueError(f"bounds {self.bounds} leave {room:g} inside the margin, less than one cluster's "
                                  f"growth g_min = {self.g_min:g}: too small for this cloud (enlarge bounds or drop them)")
+        if self.guide_svg is not None:
+            self.guide_lines(self.recipe_dir)          # a readable SVG with a stroke, before any compute
         if self.sketch:
             if self.bounds is None:
                 raise ValueError("sketch mode needs bounds = [x0, y0, x1, y1] so the sketch can be checked")
@@ -61,6 +64,38 @@ class GrowthRule(GrowthParams):
             return strokes_from_lists(self.strokes)
         return strokes_from_svg(resolve_sketch(str(self.sketch_svg), base_dir), self.domain_box())
 
+    def guide_lines(self, base_dir: Path | None = None) -> list[np.ndarray]:
+        if self.guide_strokes is not None:
+            return strokes_from_lists(self.guide_strokes)
+        return strokes_from_svg(resolve_sketch(str(self.guide_svg), base_dir), self.domain_box())
+
+    def seed_guide(self, state: State) -> Callable[[np.ndarray], np.ndarray] | None:
+        """Attraction of points for seed_policy field (the guide field, bilinear, clamped to the
+        raster) or sketch (minus the distance to the nearest guide stroke); None otherwise."""
+        if self.seed_policy == "field":
+            from scipy.interpolate import RegularGridInterpolator
+
+            grid = state.get(str(self.guide_grid), Grid)
+            if self.guide_field not in grid:
+                raise InputError(f"{self.name}: guide_grid {self.guide_grid!r} has no field {self.guide_field!r} "
+                                 f"(it has {', '.join(grid.field_names()) or 'none'})")
+            vals = np.asarray(grid[self.guide_field], np.float64)
+            if vals.shape != grid.shape:
+                raise InputError(f"{self.name}: guide field {self.guide_field!r} must hold one number per cell")
+            ys, xs = grid.y, grid.x
+            if len(ys) == 1 or len(xs) == 1:      # a single row / column: constant across it
+                ys, xs = np.append(ys, ys[-1] + 1.0), np.append(xs, xs[-1] + 1.0)
+                vals = np.broadcast_to(vals, (len(ys), len(xs))) if vals.size == 1 else \
+                    np.repeat(np.repeat(vals, 2 if len(grid.y) == 1 else 1, 0), 2 if len(grid.x) == 1 else 1, 1)
+            interp = RegularGridInterpolator((ys, xs), vals)
+            return lambda p: interp(np.column_stack([np.clip(p[:, 1], ys[0], ys[-1]), np.clip(p[:, 0], xs[0], xs[-1])]))
+        if self.seed_policy == "sketch":
+            import shapely
+
+            lines = shapely.MultiLineString(self.guide_lines(state.base_dir))
+            return lambda p: -shapely.distance(shapely.points(p), lines)
+        return None
+
     def make_topology(self, state: State, rng: np.random.Generator) -> Topology:
         """The eager mesh named by ``mesh``, or lazy tiles seeded from ``rng``."""
         if self.mesh is None:
@@ -90,7 +125,8 @@ class GrowthRule(GrowthParams):
                 (x0, y0), (x1, y1) = allp.min(0) - pad, allp.max(0) + pad
                 topo.ensure_box(x0, y0, x1, y1)
                 marked = mark_vertices(topo, strokes, cfg.c_t)
-            growth = CloudGrowth(topo, cfg, rng, bounds=bounds, marked=marked)  # type: ignore[arg-type]
+            growth = CloudGrowth(topo, cfg, rng, bounds=bounds, marked=marked,  # type: ignore[arg-type]
+                                 guide=self.seed_guide(state))
         except ValueError as exc:
             raise InputError(f"{self.name}: {exc}") from None
         if growth.snapshot_every == 0:
@@ -215,6 +251,7 @@ class GrowCloud(GrowthRule):
         state.add_domain(f"{self.cloud}_view", view_domain(self._topo, g.snake.xy(), self.view_window, self._box))
         if isinstance(self._topo, TiledTopology):
             state.report(f"{self.cloud}.tiles", self._topo.n_tiles)
+            state.report(f"{self.cloud}.tile_sampler", "numba" if kernel() is not None else "numpy")
         for k, v in g.report().items():
             state.report(k if k in ("N_s", "N_v") else f"{self.cloud}.{k}", v)
         state.report(f"{self.cloud}.clusters", g.stats.cluster_log)

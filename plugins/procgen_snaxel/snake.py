@@ -51,6 +51,7 @@ class Snake:
         self.holes = 0            # loops discarded
         self.filled = 0           # vertices sealed inside discarded holes
         self.hole_rule_disagreements = 0   # thesis "more snaxels = snake" rule vs signed area
+        self.head_on = False      # thesis-literal merges: see birth() and collide()
 
     # -- construction -------------------------------------------------------------------
     def sync(self) -> None:
@@ -122,8 +123,11 @@ class Snake:
         rm = ints[:, V] == w
         idx = np.flatnonzero(rm)
         self.merges += len(idx) - 1
-        if self._birth_simple(w, ring, unv, idx, carry, t_parent, curve):
+        if self._birth_simple(w, ring, unv, idx, carry, t_parent, curve, p):
             return
+        if self.head_on and self.collide(force=True) is not None:   # the general path needs no pairs
+            ints, flts = self.ints, self.flts
+            rm = ints[:, V] == w
         if not unv.any():        # w was enclosed; cannot happen once holes are filled
             raise TopologyBug(f"vertex {w} entered with no unvisited neighbour")
         # rotate the ring to start at a visited vertex so that unvisited runs do not wrap
@@ -226,10 +230,13 @@ class Snake:
                 self._fill(bi[:, V])
 
     def _birth_simple(self, w: int, ring: np.ndarray, unv: np.ndarray, idx: np.ndarray, carry: float,
-                      t_parent: float, curve: int) -> bool:
+                      t_parent: float, curve: int, parent: int = -1) -> bool:
         """Fast path for the common birth (~95%): the w-snaxels are one contiguous, non-wrapping
         stretch of the chain and w's unvisited neighbours form one angular run. Then the children
-        simply replace that stretch (connected merge); the general path below handles the rest."""
+        simply replace that stretch (connected merge); the general path below handles the rest.
+        With ``head_on`` (thesis section 3.2.2, taken literally) the two end snaxels of the
+        stretch, when they are not the parent, live on and each gets a child on its own edge
+        heading back at it: the pair dies when they collide (:meth:`collide`)."""
         i, j = int(idx[0]), int(idx[-1])
         if j - i + 1 != len(idx):
             return False
@@ -247,6 +254,8 @@ class Snake:
             return False
         verts = ring[[order[q] for q in range(first, last + 1)]]
         ci, cf = self._children(w, verts, np.full(len(verts), carry), t_parent, curve)
+        if self.head_on:
+            ci, cf = self._head_on(w, i, j, parent, ci, cf, t_parent, curve)
         if i == 0:     # the head was replaced: its first child becomes the head
             self.ints = np.concatenate([ci, self.ints[j + 1:]])
             self.flts = np.concatenate([cf, self.flts[j + 1:]])
@@ -254,6 +263,38 @@ class Snake:
             self.ints = np.concatenate([self.ints[:i], ci, self.ints[j + 1:]])
             self.flts = np.concatenate([self.flts[:i], cf, self.flts[j + 1:]])
         return True
+
+    def _head_on(self, w: int, i: int, j: int, parent: int, ci: np.ndarray, cf: np.ndarray, t: float, curve: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Children framed by the end partners [i, j] kept and their head-on back-children."""
+        pre_i, pre_f, post_i, post_f = [], [], [], []
+        f = self.flts
+        apart = f[:, POS] < (1.0 - self.min_offset) * f[:, ELEN]      # else they meet at once
+        if i != parent and j > i and apart[i]:
+            bi, bf = self._children(w, self.ints[i:i + 1, U], np.zeros(1), t, curve)
+            pre_i, pre_f = [self.ints[i:i + 1], bi], [f[i:i + 1], bf]
+        if j != parent and j > i and apart[j]:
+            bi, bf = self._children(w, self.ints[j:j + 1, U], np.zeros(1), t, curve)
+            post_i, post_f = [bi, self.ints[j:j + 1]], [bf, f[j:j + 1]]
+        self.merges -= len(pre_i) // 2 + len(post_i) // 2      # counted when they collide instead
+        return np.concatenate([*pre_i, ci, *post_i]), np.concatenate([*pre_f, cf, *post_f])
+
+    def collide(self, force: bool = False) -> np.ndarray | None:
+        """Thesis-literal merge (section 3.2.2): neighbours on one edge heading at each other die
+        once they meet (their travelled parts cover the edge; ``force``: now, before a birth the
+        general path handles); returns the mask of the dead (old chain indices) or None."""
+        ints, f = self.ints, self.flts
+        nxt = np.roll(np.arange(len(ints)), -1)
+        hit = np.flatnonzero((ints[:, U] == ints[nxt, V]) & (ints[:, V] == ints[nxt, U])
+                             & (force | (f[:, POS] + f[nxt, POS] >= f[:, ELEN])))
+        if not len(hit):
+            return None
+        dead = np.zeros(len(ints), bool)
+        dead[hit] = True
+        dead[nxt[hit]] = True
+        self.ints, self.flts = ints[~dead], f[~dead]
+        self.merges += len(hit)
+        return dead
 
     def _fill(self, seeds: np.ndarray) -> None:
         """Seal the unvisited vertices enclosed by a discarded hole loop (breadth-first, one

@@ -6,7 +6,7 @@ anchored at the origin, and each piece is a pure function of (seed, tile index),
 tessellation does not depend on the order in which growth asks for tiles:
 
 * **Points.** Tiles are coloured in four phases by index parity (phase = i mod 2 + 2 (j mod 2));
-  a tile is sampled (core ``poisson_disk``, maximal) with the already-final samples of its
+  a tile is sampled (maximal; :mod:`.tile_poisson`, compiled) with the already-final samples of its
   lower-phase neighbours as fixed points, and a random stream spawned from (seed, i, j).
   Same-phase tiles never touch, so every pair of samples is >= r apart and every location is
   within r of a sample across borders (the parallel phase-group scheme of Wei 2008).
@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from procgen.builtin.poisson import poisson_disk
 from procgen.domains.trimesh_domain import edge_table
 
+from .tile_poisson import sample_tile
 from .topology import Topology, angular_rings
 
 Tile = tuple[int, int]
@@ -102,8 +102,7 @@ class TiledTopology(Topology):
             fixed = self.points[dep_ids]
         rng = np.random.default_rng(np.random.SeedSequence(self.seed.entropy,
                                                            spawn_key=(*self.seed.spawn_key, _zigzag(t[0]), _zigzag(t[1]))))
-        new = poisson_disk(rng, (self.tile, self.tile), self.radius, origin=(t[0] * self.tile, t[1] * self.tile),
-                           fixed=fixed)
+        new = sample_tile(rng, (t[0] * self.tile, t[1] * self.tile), self.tile, self.radius, fixed)
         ids = np.arange(len(self.points), len(self.points) + len(new))
         self.points = np.concatenate([self.points, new])
         self.vtile = np.concatenate([self.vtile, np.tile(np.array(t, np.int64), (len(new), 1))])
@@ -112,7 +111,7 @@ class TiledTopology(Topology):
 
     # -- triangles ---------------------------------------------------------------------------
     def _own(self, tiles: list[Tile]) -> None:
-        """Triangles owned by each of ``tiles`` (one Delaunay of the union of their blocks)."""
+        """Triangles owned by each of ``tiles`` (one Delaunay of the samples within r of them)."""
         from scipy.spatial import Delaunay
 
         todo = sorted(set(tiles) - self._owned.keys())
@@ -120,10 +119,22 @@ class TiledTopology(Topology):
             return
         block = sorted({n for t in todo for n in _block(t)})
         ids = np.concatenate([self.tile_points(n) for n in block])
+        # only samples within r of a todo tile can be corners of its triangles (a triangle with
+        # its circumcentre c in the tile has an empty circle of radius <= r, as c is within r of
+        # a sample); a superset is harmless, so grow the boxes by a little more than r
+        p = self.points[ids]
+        reach = 1.01 * self.radius
+        lo = np.floor((p - reach) / self.tile).astype(np.int64)
+        hi = np.floor((p + reach) / self.tile).astype(np.int64)
+        want = _key(*np.array(todo, np.int64).T)
+        near = np.zeros(len(ids), bool)
+        for ci in (lo[:, 0], hi[:, 0]):
+            for cj in (lo[:, 1], hi[:, 1]):
+                near |= np.isin(_key(ci, cj), want)
+        ids = ids[near]
         tri = ids[Delaunay(self.points[ids]).simplices]
         ti = np.floor(circumcentres(self.points, tri) / self.tile).astype(np.int64)
         key = _key(ti[:, 0], ti[:, 1])
-        want = _key(*np.array(todo, np.int64).T)
         tri, key = tri[np.isin(key, want)], key[np.isin(key, want)]
         order = np.argsort(key, kind="stable")
         tri, key = tri[order], key[order]
