@@ -21,7 +21,8 @@ from procgen import FieldSpec, State, param
 from procgen.ca.automaton import CellAutomaton
 from procgen.ca.cells import put_cell_values
 from procgen.noise import value_noise_3d
-from procgen_layers.stack import THICKNESS, cell_areas, cell_centres, cell_size
+from procgen.ca.cells import cell_size
+from procgen_layers.stack import THICKNESS, cell_areas, cell_centres
 
 from .peel import layer_index
 
