@@ -29,6 +29,8 @@ MIN_DROPS = 10_000
 """Drops from which ``accelerate=None`` takes the compiled water step."""
 MIN_CELLS = 100_000
 """Cells from which ``accelerate=None`` takes the compiled cell-automaton steps."""
+MIN_SNAXELS = 2_000
+"""Chain length from which ``accelerate=None`` takes the compiled snaxel events."""
 
 
 def kernels(module: str, accelerate: bool | None = None, work: int = 0, min_work: int = 0

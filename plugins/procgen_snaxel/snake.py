@@ -21,6 +21,7 @@ from typing import Callable
 
 import numpy as np
 
+from procgen.accel import MIN_SNAXELS, kernels
 from procgen.geometry import signed_area
 
 from .topology import Topology
@@ -52,6 +53,7 @@ class Snake:
         self.filled = 0           # vertices sealed inside discarded holes
         self.hole_rule_disagreements = 0   # thesis "more snaxels = snake" rule vs signed area
         self.head_on = False      # thesis-literal merges: see birth() and collide()
+        self.accelerate: bool | None = None  # events by procgen_snaxel.events_numba, see procgen.accel
 
     # -- construction -------------------------------------------------------------------
     def sync(self) -> None:
@@ -108,11 +110,18 @@ class Snake:
     # -- events ---------------------------------------------------------------------------
     def find(self, u: int, v: int) -> int:
         """Chain index of the snaxel on edge u->v, or -1."""
+        kern = kernels("procgen_snaxel.events_numba", self.accelerate, len(self.ints), MIN_SNAXELS)
+        if kern is not None:
+            return kern.find(self, u, v)
         hit = np.flatnonzero((self.ints[:, V] == v) & (self.ints[:, U] == u))
         return int(hit[0]) if len(hit) else -1
 
     def birth(self, p: int, carry: float) -> None:
         """Snaxel ``p`` reached its destination w: visit w, replace the w-snaxels by children."""
+        kern = None if self.head_on else kernels("procgen_snaxel.events_numba", self.accelerate,
+                                                 len(self.ints), MIN_SNAXELS)
+        if kern is not None and kern.birth(self, p, carry):
+            return                # a simple birth, done compiled (same chain; head-on pairs stay numpy)
         ints, flts = self.ints, self.flts
         w = int(ints[p, V])
         t_parent, curve = float(flts[p, T]), int(ints[p, CURVE])

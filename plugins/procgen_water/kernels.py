@@ -277,6 +277,20 @@ def _laid(a, thickness, deposit, sk, dtouched, nd):
         sk[key, 3] = 0.0
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _shift(pos, vel, volume, sediment, kind, moving, age, m, i):
+    """Drop i moves to slot m <= i (compaction keeps the drop order, as ``Drops.take``)."""
+    pos[m, 0] = pos[i, 0]
+    pos[m, 1] = pos[i, 1]
+    vel[m, 0] = vel[i, 0]
+    vel[m, 1] = vel[i, 1]
+    volume[m] = volume[i]
+    sediment[m] = sediment[i]
+    kind[m] = kind[i]
+    moving[m] = moving[i]
+    age[m] = age[i]
+
+
 @njit(cache=True, nogil=True)
 def _sort_by_cell(pos, n, nx, ny, cell, counts, order):
     """order[:n] = drops sorted by cell, then by index (a counting sort; counts has ncell + 1)."""
@@ -422,21 +436,11 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
             drained_sed[key // L] += sk[key, 1]
         m = 0
         for i in range(n):
-            if out[i]:
-                continue
-            if m != i:
-                pos[m, 0] = pos[i, 0]
-                pos[m, 1] = pos[i, 1]
-                vel[m, 0] = vel[i, 0]
-                vel[m, 1] = vel[i, 1]
-                volume[m] = volume[i]
-                sediment[m] = sediment[i]
-                kind[m] = kind[i]
-                moving[m] = moving[i]
-                age[m] = age[i]
+            if not out[i]:
+                _shift(pos, vel, volume, sediment, kind, moving, age, m, i)
                 speed[m] = speed[i]
                 dh[m] = dh[i]
-            m += 1
+                m += 1
         n = m
     # --- the interaction order: by cell, then drop index ---------------------------------------
     # With the one-cell footprint every key (cell, layer) only hears drops of its own cell, so
@@ -627,20 +631,10 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     _laid(a, thickness, deposit, sk, dtouched, nd)
     m = 0
     for i in range(n):
-        if not volume[i] > 0:
-            continue
-        if m != i:
-            pos[m, 0] = pos[i, 0]
-            pos[m, 1] = pos[i, 1]
-            vel[m, 0] = vel[i, 0]
-            vel[m, 1] = vel[i, 1]
-            volume[m] = volume[i]
-            sediment[m] = sediment[i]
-            kind[m] = kind[i]
-            moving[m] = moving[i]
-            age[m] = age[i]
-        sediment[m] = max(sediment[m], 0.0)
-        m += 1
+        if volume[i] > 0:
+            _shift(pos, vel, volume, sediment, kind, moving, age, m, i)
+            sediment[m] = max(sediment[m], 0.0)
+            m += 1
     _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
     return m
 

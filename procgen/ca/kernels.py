@@ -120,6 +120,18 @@ def _candidates(indptr, indices, labels, diag, has_diag, p_diagonal, front, u, o
     return nok
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _unlabelled_of(indptr, indices, c, labels, mark, buf, nf):
+    """Append c's unmarked, unlabelled neighbours to buf[nf:]; returns the new length."""
+    for j in range(indptr[c], indptr[c + 1]):
+        t = indices[j]
+        if labels[t] == 0 and not mark[t]:
+            mark[t] = True
+            buf[nf] = t
+            nf += 1
+    return nf
+
+
 @njit(cache=True, nogil=True)
 def _pick(indptr, indices, bptr, bidx, labels, front, ok, keys, mark, buf):
     """Per frontier cell the candidate of smallest key passes its label (labels in place; a
@@ -149,18 +161,8 @@ def _pick(indptr, indices, bptr, bidx, labels, front, ok, keys, mark, buf):
                 buf[nf] = c
                 nf += 1
             continue
-        for j in range(indptr[c], indptr[c + 1]):
-            t = indices[j]
-            if labels[t] == 0 and not mark[t]:
-                mark[t] = True
-                buf[nf] = t
-                nf += 1
-        for j in range(bptr[c], bptr[c + 1]):
-            t = bidx[j]
-            if labels[t] == 0 and not mark[t]:
-                mark[t] = True
-                buf[nf] = t
-                nf += 1
+        nf = _unlabelled_of(indptr, indices, c, labels, mark, buf, nf)
+        nf = _unlabelled_of(bptr, bidx, c, labels, mark, buf, nf)
     for i in range(nf):
         mark[buf[i]] = False
     return nnew, nf
