@@ -52,7 +52,7 @@ def raster_area_perimeter(xy: np.ndarray, eps: float) -> tuple[float, float]:
     lo = xy.min(0) - 2.0 * eps
     nx, ny = (np.ceil((xy.max(0) + 2.0 * eps - lo) / eps).astype(int))
     img = Image.new("1", (int(nx), int(ny)), 0)
-    ImageDraw.Draw(img).polygon([tuple(q) for q in ((xy - lo) / eps - 0.5).tolist()], fill=1)
+    ImageDraw.Draw(img).polygon(((xy - lo) / eps - 0.5).ravel().tolist(), fill=1)
     inside = np.asarray(img, bool)
     sides = np.count_nonzero(inside[:, 1:] != inside[:, :-1]) + np.count_nonzero(inside[1:] != inside[:-1])
     return float(inside.sum()) * eps * eps, float(sides) * eps
