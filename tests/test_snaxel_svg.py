@@ -101,3 +101,53 @@ def test_cloudscape_one_layer_per_cloud_with_lobe_gradients():
     assert len(list(root.iter(SVG + "circle"))) == 12                    # one lobe per curve
     bare = ET.fromstring(cloudscape_svg(dom, sky=False))
     assert layers(bare)[0] == "cloud 1 (depth 0)"
+
+
+def test_cloudscape_bases_lie_on_one_receding_plane():
+    """With a horizon, each cloud's base is moved to horizon + s (base_level - horizon) for its
+    drawing scale s: the near cloud's base floats higher than the far one's, both as computed."""
+    import re
+
+    from procgen_snaxel.exporters import cloudscape_svg
+
+    lines = [ring(40, 60, 20, 10), ring(100, 20, 30, 18), ring(60, 40, 15, 9)]
+    dom = Polylines.from_list(lines, closed=True, bounds=(0.0, 150.0, 0.0, 90.0))
+    dom.add_field("cloud__depth", np.array([0, 2, 1]), at="line")
+    root = ET.fromstring(cloudscape_svg(dom, horizon=0.1, base_level=0.5, perspective=0.4))
+    ty = {}
+    for g in root.findall(SVG + "g"):
+        m = re.match(r"translate\(([-\d.e]+),([-\d.e]+)\) scale\(([-\d.e]+),", g.get("transform") or "")
+        if m:
+            ty[g.get(INK + "label")] = (float(m.group(2)), float(m.group(3)))
+    for label, depth in (("cloud 1 (depth 0)", 0), ("cloud 2 (depth 2)", 2), ("cloud 3 (depth 1)", 1)):
+        y, s = ty[label]
+        assert s == pytest.approx(1.0 - 0.4 * (1.0 - depth / 2.0))
+        assert y == pytest.approx(90.0 * (1.0 - 0.1 - s * 0.4), abs=1e-3)      # page y-down
+    with pytest.raises(InputError, match="horizon"):
+        cloudscape_svg(dom, horizon=0.6, base_level=0.5)
+
+
+def test_detail_figure_magnifies_the_neck_and_the_fringe():
+    """Figure 4.4 / 4.8 pages: the whole cloud plus one framed, magnified window per detail; the
+    neck window sits on the thin bar of a dumbbell, the fringe windows on its crinkled edge."""
+    from shapely.geometry import Point, Polygon, box
+
+    from procgen_snaxel.exporters import detail_svg, detail_windows
+
+    bell = Point(50, 20).buffer(20).union(Point(50, 90).buffer(20)).union(box(46, 30, 54, 80))
+    xy = np.asarray(bell.exterior.coords)[:-1]
+    (cx, cy, side), = detail_windows(xy, "neck", 0.08)
+    assert 40 <= cy <= 70 and abs(cx - 50) < 2 and 16 <= side <= 40
+    t = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    rad = 40 + np.where(np.cos(t) > 0.7, 3 * np.sin(60 * t), 0.0)          # bumps on the right only
+    crinkled = np.column_stack([60 + rad * np.cos(t), 60 + rad * np.sin(t)])
+    wins = detail_windows(crinkled, "fringe", 0.1)
+    assert len(wins) == 2 and all(x > 80 for x, _, _ in wins)
+    dom = Polylines.from_list([crinkled], closed=True, bounds=(0.0, 120.0, 0.0, 120.0))
+    root = ET.fromstring(detail_svg(dom, focus="fringe", size=0.1))
+    names = layers(root)
+    assert names[:2] == ["sky", "whole cloud"] and len(names) == 4
+    assert all(n.startswith("detail ") and float(n.split("x")[-1]) > 2.0 for n in names[2:])
+    assert Polygon(crinkled).is_valid
+    with pytest.raises(InputError, match="focus"):
+        detail_svg(dom, focus="middle")

@@ -241,7 +241,8 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
                    units: str = "px", sky: bool = True, sky_top: str = "#3f78c0", sky_horizon: str = "#c9def2",
                    lit: str = "#ffffff", shade: str = "#9aa6b8", sun_x: float = -0.55, sun_y: float = 0.85,
                    lobe_min: float = 0.04, perspective: float = 0.45, flatten: float = 0.35,
-                   soft: float = 0.0, title: str = "") -> bytes:
+                   soft: float = 0.0, horizon: float | None = 0.08, base_level: float = 0.42,
+                   title: str = "") -> bytes:
     """Clouds as an illustrator draws them, back to front, one Inkscape layer per cloud.
 
     Each cloud: its silhouette in the shade colour, then one disc per lobe (each snaxel curve is
@@ -249,9 +250,15 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
     the sun (``sun_x``, ``sun_y``, y up), all clipped to the silhouette, then a grey band along
     the base (the shadowed underside of a cumulus). Far clouds (low cloud__depth) are drawn
     smaller and flatter about their base (``perspective``, ``flatten``) and mixed towards the
-    horizon colour (aerial perspective). ``soft`` > 0 blurs the edges by that fraction of a
-    cloud's height; ``sky`` = false leaves the background empty.
+    horizon colour (aerial perspective). With ``horizon`` (a fraction of the page height from the
+    bottom; None: bases stay where they grew) every base is moved onto one condensation plane seen
+    in perspective: a cloud drawn at scale s has its base at horizon + s (base_level - horizon),
+    so the nearest clouds float highest and the far ones line up towards the horizon, as
+    fair-weather cumulus do. ``soft`` > 0 blurs the edges by that fraction of a cloud's height;
+    ``sky`` = false leaves the background empty.
     """
+    if horizon is not None and not 0.0 <= horizon < base_level <= 1.0:
+        raise InputError(f"cloudscape_svg: need 0 <= horizon < base_level <= 1, got {horizon}, {base_level}")
     dom = _need(domain, "cloudscape_svg", "cloud__depth")
     norm = float(np.hypot(sun_x, sun_y))
     if norm == 0:
@@ -278,7 +285,8 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         top = _mix(lit, sky_horizon, 0.45 * far)
         bottom = _mix(shade, sky_horizon, 0.55 * far)
         mid = _mix(top, bottom, 0.45)
-        tf = (f"translate({fmt_number(qx)},{fmt_number(qy)}) scale({fmt_number(sc)},{fmt_number(sc * (1 - flatten * far))}) "
+        ty = qy if horizon is None else page.h * (1.0 - horizon - sc * (base_level - horizon))
+        tf = (f"translate({fmt_number(qx)},{fmt_number(ty)}) scale({fmt_number(sc)},{fmt_number(sc * (1 - flatten * far))}) "
               f"translate({fmt_number(-qx)},{fmt_number(-qy)})")
         attrs: dict[str, Any] = {"transform": tf}
         if soft > 0:
@@ -290,7 +298,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
         clip.add(dwg.path(d=d))
         lobe = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.35 * sx, 0.5 - 0.35 * sy), id=f"lobe{i}")
-        for off, colour in ((0.0, top), (0.55, mid), (1.0, bottom)):
+        for off, colour in ((0.0, top), (0.62, top), (1.0, mid)):     # sunlit domes stay white; grey only at the rim
             lobe.add_stop_color(off, colour)
         dwg.defs.add(lobe)
         base = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"base{i}")
@@ -375,6 +383,104 @@ def plotter_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
     return finish(dwg, provenance, title or "snaxel cloud (plotter)")
 
 
+# -- magnified details (Figures 4.4 and 4.8) -----------------------------------------------------
+def _cut_width(poly: Any, y: float, x0: float, x1: float) -> tuple[float, float]:
+    """Width of the widest piece of the silhouette on the horizontal line at ``y`` (the main
+    body's width there) and that piece's middle."""
+    from shapely.geometry import LineString
+
+    cut = poly.intersection(LineString([(x0 - 1.0, y), (x1 + 1.0, y)]))
+    if cut.is_empty:
+        return 0.0, 0.5 * (x0 + x1)
+    widest = max(getattr(cut, "geoms", [cut]), key=lambda g: g.length)
+    return float(widest.length), float(widest.centroid.x)
+
+
+def detail_windows(xy: np.ndarray, focus: str, size: float) -> list[tuple[float, float, float]]:
+    """(x, y, side) of the windows a detail figure magnifies. ``fringe`` (Figure 4.8): the
+    two windows (apart) holding the most outline length, where the fringe crowds; ``neck``
+    (Figure 4.4): the narrowest horizontal cut of the body (its widest piece on the line) above
+    the lower quarter with wider body above and below, a window 2 cut widths wide (at least
+    ``size`` of the cloud's box)."""
+    from shapely.geometry import Polygon
+
+    (x0, y0), (x1, y1) = xy.min(0), xy.max(0)
+    side = size * max(x1 - x0, y1 - y0)
+    if focus == "fringe":       # the two most crinkled windows: most outline length per window
+        seg = np.hypot(*(np.roll(xy, -1, 0) - xy).T)
+        cand = xy[:: max(1, len(xy) // 200)]
+        inside = np.all(np.abs(xy[None, :, :] - cand[:, None, :]) <= side / 2, axis=2)
+        length = inside.astype(float) @ seg
+        first = int(np.argmax(length))
+        far = np.any(np.abs(cand - cand[first]) > side, axis=1)
+        second = int(np.argmax(np.where(far, length, -1.0)))
+        return [(float(cand[k, 0]), float(cand[k, 1]), side) for k in (first, second)]
+    poly = Polygon(xy).buffer(0)
+    ys = np.linspace(y0, y1, 61)[1:-1]
+    cuts = np.array([_cut_width(poly, y, x0, x1) for y in ys])
+    w = cuts[:, 0]
+    above = np.maximum.accumulate(w[::-1])[::-1]
+    below = np.maximum.accumulate(w)
+    score = np.where((ys > y0 + 0.25 * (y1 - y0)) & (above > 1.3 * w) & (below > 1.3 * w) & (w > 0), w, np.inf)
+    k = int(np.argmin(score)) if np.isfinite(score).any() else int(np.argmin(np.where(w > 0, w, np.inf)))
+    return [(float(cuts[k, 1]), float(ys[k]), max(side, 2.0 * float(w[k])))]
+
+
+def detail_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, focus: str = "fringe",
+               windows: Sequence[Sequence[float]] | None = None, size: float = 0.08, width: float = 900,
+               units: str = "px", fill: str = "#ffffff", background: str | None = "#8fb8e0",
+               title: str = "") -> bytes:
+    """The whole cloud beside magnified windows of it (the thesis's Figures 4.4 and 4.8): each
+    window framed on the overview and redrawn at its own scale (the factor is written on it),
+    outline stroked so the detail reads. ``windows``: explicit [x, y, side] in model units;
+    else ``focus`` = fringe | neck picks them (:func:`detail_windows`)."""
+    dom = _need(domain, "cloud_detail_svg")
+    if focus not in ("fringe", "neck"):
+        raise InputError(f"cloud_detail_svg: focus = {focus!r}, expected fringe or neck")
+    xy = dom.line(dom.n_lines - 1)
+    wins = [tuple(map(float, w)) for w in windows] if windows else detail_windows(xy, focus, size)
+    if any(len(w) != 3 or not w[2] > 0 for w in wins):
+        raise InputError("cloud_detail_svg: windows are [x, y, side] with side > 0")
+    (x0, y0), (x1, y1) = xy.min(0), xy.max(0)
+    pad = 0.04 * max(x1 - x0, y1 - y0)
+    x0, y0, x1, y1 = x0 - pad, y0 - pad, x1 + pad, y1 + pad
+    H = 100.0                                   # layout height; panels live in a y-up layout box
+    ov = H / (y1 - y0)                          # overview scale
+    ow = (x1 - x0) * ov
+    gap = 4.0
+    ph = (H - gap * (len(wins) - 1)) / len(wins)
+    page = Page((0.0, ow + gap + ph, 0.0, H), width, units)
+    dwg = page.dwg
+    page.sky(background)
+    sw = fmt_number(0.3)
+
+    def place(pts: np.ndarray, scale: float, ox: float, oy: float, cx: float, cy: float) -> np.ndarray:
+        return np.column_stack([ox + (pts[:, 0] - cx) * scale, oy + (pts[:, 1] - cy) * scale])
+
+    over = page.layer("whole cloud")
+    over.add(dwg.path(d=page.d(place(xy, ov, 0.0, 0.0, x0, y0)), fill=fill, stroke="#5a6b80", stroke_width=sw))
+    for k, (cx, cy, side) in enumerate(wins):
+        lo = place(np.array([[cx - side / 2, cy - side / 2], [cx + side / 2, cy + side / 2]]), ov, 0.0, 0.0, x0, y0)
+        over.add(dwg.path(d=page.d(np.array([lo[0], [lo[1, 0], lo[0, 1]], lo[1], [lo[0, 0], lo[1, 1]]])),
+                          fill="none", stroke="#c0392b", stroke_width=sw))
+        py0 = H - (k + 1) * ph - k * gap
+        box = np.array([[ow + gap, py0], [ow + gap + ph, py0], [ow + gap + ph, py0 + ph], [ow + gap, py0 + ph]])
+        clip = dwg.defs.add(dwg.clipPath(id=f"detail{k}"))
+        clip.add(dwg.path(d=page.d(box)))
+        mag = ph / side
+        layer = page.layer(f"detail {k + 1} x{mag / ov:.1f}")
+        g = dwg.g(clip_path=f"url(#detail{k})")
+        g.add(dwg.path(d=page.d(box), fill=background or "#ffffff"))
+        g.add(dwg.path(d=page.d(place(xy, mag, ow + gap + ph / 2, py0 + ph / 2, cx, cy)), fill=fill,
+                       stroke="#5a6b80", stroke_width=sw, stroke_linejoin="round"))
+        layer.add(g)
+        layer.add(dwg.path(d=page.d(box), fill="none", stroke="#c0392b", stroke_width=sw))
+        tx, ty = page.xy(np.array([[ow + gap + 1.5, py0 + ph - 5.0]]))[0]
+        layer.add(dwg.text(f"x{mag / ov:.1f}", insert=(fmt_number(tx), fmt_number(ty)), font_size=fmt_number(6.0),
+                           fill="#c0392b", font_family="sans-serif"))
+    return finish(dwg, provenance, title or "snaxel cloud, magnified details")
+
+
 EXPORTERS: list[tuple[str, str, Any, str]] = [
     ("cloud_svg", ".svg", cloud_svg, "cloud outline as one filled closed path, y-down, sky and cloud layers"),
     ("cloud_process_svg", ".svg", process_svg, "nested earlier contours, one colour per curve, a layer each"),
@@ -383,4 +489,5 @@ EXPORTERS: list[tuple[str, str, Any, str]] = [
     ("cloud_gif", ".gif", anim_gif, "animated GIF of the growth (from {cloud}_history)"),
     ("cloudscape_svg", ".svg", cloudscape_svg, "illustrated cloudscape: lobe gradients, flat shaded bases, a layer per cloud"),
     ("cloud_plotter_svg", ".svg", plotter_svg, "stroke-only outlines for pen plotters, ordered, pens as layers"),
+    ("cloud_detail_svg", ".svg", detail_svg, "the cloud beside magnified windows of its fringe or neck (Figs 4.4, 4.8)"),
 ]

@@ -14,6 +14,7 @@ from shapely.geometry import Polygon
 
 from procgen.geometry import signed_area
 
+from .fractal import raster_area_perimeter
 from .params import GrowthParams
 from .snake import CURVE, ELEN, POS, T, U, UNVISITED, V, Snake
 from .speeds import base_speed, blend, circular_profile, effect_coefficient, linear_profile
@@ -489,10 +490,16 @@ class CloudGrowth:
             "area": signed_area(xy), "perimeter": runs.perimeter,
             "bbox": [float(xy[:, 0].min()), float(xy[:, 1].min()), float(xy[:, 0].max()), float(xy[:, 1].max())],
             **shape_statistics(xy),
-            "area_history": [round(signed_area(s.xy), 3) for s in self.snapshots],
-            "perimeter_history": [round(float(np.hypot(*(np.roll(s.xy, -1, 0) - s.xy).T).sum()), 3)
-                                  for s in self.snapshots],
+            **self.raster_history(),
         }
+
+    def raster_history(self) -> dict:
+        """Area and perimeter of every recorded contour at a fixed pixel, the Poisson radius
+        (:func:`.fractal.raster_area_perimeter`, for Lovejoy's D over an ensemble)."""
+        eps = float(self.topo.min_edge)
+        ap = np.array([raster_area_perimeter(s.xy, eps) for s in self.snapshots]).reshape(-1, 2)
+        return {"area_history": np.round(ap[:, 0], 3).tolist(), "perimeter_history": np.round(ap[:, 1], 3).tolist(),
+                "raster_pixel": eps}
 
 
 def shape_statistics(xy: np.ndarray) -> dict[str, float]:

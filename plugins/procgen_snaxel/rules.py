@@ -236,7 +236,8 @@ class GrowCloud(GrowthRule):
         """Over a sweep's runs: Lovejoy's area-perimeter dimension D of all recorded contours, and
         the band of aspect ratio and solidity of the final outlines (``procgen sweep``)."""
         c = self.cloud
-        out = ensemble_dimension([r[f"{c}.area_history"] for r in reports], [r[f"{c}.perimeter_history"] for r in reports])
+        out = ensemble_dimension([r[f"{c}.area_history"] for r in reports], [r[f"{c}.perimeter_history"] for r in reports],
+                                 max(r[f"{c}.raster_pixel"] for r in reports))
         for key in ("aspect", "solidity"):
             v = [r[f"{c}.{key}"] for r in reports]
             out.update({f"{key}_min": min(v), f"{key}_median": round(float(np.median(v)), 4), f"{key}_max": max(v)})
@@ -279,7 +280,7 @@ class Cloudscape(GrowthRule):
 
     scape: str = param("cloudscape", doc="name of the Polylines holding every cloud outline")
     n_clouds: int = param(4, ge=1, le=64, doc="number of clouds")
-    sources: list[list[float]] | None = param(None, doc="[[x, y], ...] one per cloud; None: random, far ones higher")
+    sources: list[list[float]] | None = param(None, doc="[[x, y], ...] one per cloud; None: random x, far ones lower")
     base_depth: float | None = param(None, gt=0.0, units="length",
                                      doc="flat bases: each cloud's condensation level lies this far below its source")
 
@@ -302,8 +303,8 @@ class Cloudscape(GrowthRule):
         m = self.margin
         if self.sources is not None:
             sources = [list(map(float, s)) for s in self.sources]
-        else:    # back (depth 0) clouds sit higher, front ones lower: a receding sky
-            depth_y = np.linspace(0.66, 0.34, self.n_clouds)
+        else:    # back (depth 0) clouds sit lower, towards the horizon: a base plane seen from below
+            depth_y = np.linspace(0.34, 0.66, self.n_clouds)
             xs = (rng.permutation(self.n_clouds) + rng.uniform(0.3, 0.7, self.n_clouds)) / self.n_clouds
             sources = [[x0 + m + (x1 - x0 - 2 * m) * float(xs[i]), y0 + m + (y1 - y0 - 2 * m) * float(depth_y[i])]
                        for i in range(self.n_clouds)]
