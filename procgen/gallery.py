@@ -87,7 +87,9 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
 
     A list may include others (``[gallery] include = [...]``, relative to it). An entry whose
     recipe needs a rule that no loaded plugin registers (its family is disabled or not installed)
-    is left out with a one-line note on stderr rather than failing the gallery.
+    is left out with a one-line note on stderr rather than failing the gallery; an entry whose
+    recipe family is not loaded at all (a list naming another plugin's recipes, that plugin
+    disabled) is left out silently, like that plugin's own entries.
     """
     files = []
     for main in [path] if path else host.gallery_lists():
@@ -98,6 +100,7 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
             if p.is_file():
                 files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
     recipes = list_recipes(host)
+    families = {name.split("/", 1)[0] for name in recipes}
     entries: list[Entry] = []
     seen: set[str] = set()
     for p, d in files:
@@ -106,6 +109,9 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
             if e.slug in seen:
                 raise RecipeError(f"{p.name}: entry[{i}]: id {e.slug!r} is used twice; give one an 'id'")
             seen.add(e.slug)
+            named = not e.recipe.endswith(".toml")         # a "family/name", not a file path
+            if named and e.recipe not in recipes and e.recipe.split("/", 1)[0] not in families:
+                continue            # one plugin's list naming another's recipes, that one disabled
             missing = rules_missing(recipes[e.recipe], host) if e.recipe in recipes else []
             if missing:
                 print(f"gallery: left out {e.slug}: recipe {e.recipe} needs {', '.join(missing)} "
