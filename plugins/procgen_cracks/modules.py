@@ -84,6 +84,7 @@ class Modules:
                    for k in _STATE}
         self.n_cracks = 0
         self.n_lines = 0
+        self._drive = np.zeros(0)
         self._pts: list[tuple[np.ndarray, ...]] = []
         self._line_meta: list[tuple[np.ndarray, ...]] = []
         self._seq = 0
@@ -204,7 +205,7 @@ class Modules:
         new_ang = ang + turn
         fork = above & (s1 - s2 < r.fork_epsilon * mr) & (s2 > mr) & (cm["steps"] >= 2)
         cm["K"] = cm["K"] + r.potential * (s1 - mr) * r.step_length
-        self._drive = s1
+        self._drive = s1                                      # the stress each CM relieves
         # 2. move, crossing facet edges
         step_vec = r.step_length * s * np.column_stack([np.cos(new_ang), np.sin(new_ang)])
         q = xy + step_vec
@@ -237,7 +238,7 @@ class Modules:
         cm["R"] = cm["R"] + self._release(np.nonzero(go)[0])
         np.maximum.at(self.width, (cell_new[go], lay[go]), self._width(cm["R"][go]))
         # 4. merged segments: a vertex where the chord from the last vertex turns by > CSa
-        self._segments(xy, ~crossed & go, new_ang - ang)
+        self._segments(xy, ~crossed & go, np.where(crossed, 0.0, new_ang - ang))
         self.stats["steps"] += 1
         # 5. endings and forks
         ended = collide | (cm["K"] <= 0) | lost | (cm["steps"] >= r.max_module_steps)
@@ -397,10 +398,13 @@ class Modules:
         start = cm["xy"][sel] - seg_len * h
         dist = r.release_distance
         # every cell whose centre projects onto the step is crossed by the perpendicular
-        # through the step's middle: sample it every quarter cell out to d on both sides
+        # through the step's middle over a chord of at least sqrt 2 - step cells (a unit square
+        # cut at step/2 from its centre, at 45 degrees): samples spaced by less find them all
         mid = start + 0.5 * seg_len * h
         nrm = np.column_stack([-h[:, 1], h[:, 0]])
-        off = np.arange(-4 * np.ceil(dist), 4 * np.ceil(dist) + 1) * (s / 4.0)
+        gap = min(0.5, np.sqrt(2.0) - r.step_length - 0.01)
+        half = int(np.ceil(dist / gap))
+        off = np.arange(-half, half + 1) * (gap * s)
         pts = (mid[:, None, :] + off[None, :, None] * nrm[:, None, :]).reshape(-1, 2)
         mi = np.repeat(np.arange(len(sel)), len(off))
         pf, pxy, hv, p0 = self._unfold_points(face[mi], pts, h[mi], start[mi])
@@ -468,6 +472,10 @@ class Modules:
         line, seq, p3, w, face = (np.concatenate(x) for x in zip(*self._pts))
         order = np.lexsort((seq, line))
         line, p3, w, face = line[order], p3[order], w[order], face[order]
+        # a point repeating the previous one of its line (an edge point closing a lost CM)
+        dup = np.zeros(len(line), bool)
+        dup[1:] = (line[1:] == line[:-1]) & np.all(p3[1:] == p3[:-1], axis=1)
+        line, p3, w, face = line[~dup], p3[~dup], w[~dup], face[~dup]
         ids, lay, typ, _ = (np.concatenate(x) for x in zip(*self._line_meta))
         meta_order = np.argsort(ids)
         lay, typ = lay[meta_order], typ[meta_order]
