@@ -149,3 +149,35 @@ def test_young_rule_follows_its_equation_cell_by_cell():
     want = np.where(receives(gs), field > 0, alive)
     assert np.array_equal(got, want)
     assert math.isclose(got.mean(), want.mean()) and got.any() and not got.all()
+
+
+def test_splats_cover_a_curved_network_without_speckles():
+    """Per-face lattices on a curved mesh leave seams wider than cs; the splats grow to cover them."""
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    from procgen import check_recipe, get_plugin_manager, run
+    from procgen_cellnet.exporters import COVER_MARGIN, cover_radius, splat_mesh
+
+    host = get_plugin_manager()
+    steps = [{"rule": "mesh.primitive", "params": {"shape": "icosphere", "subdivisions": 3}},
+             {"rule": "cellnet.seed", "params": {"target_cells": 6000, "grid": "triangle"}},
+             {"rule": "cellnet.link"}]
+    state = run(check_recipe({"steps": steps}, host, "t.toml"), host, seed=1, progress=False).state
+    net, mesh = state.domains["cells"], state.domains["mesh"]
+    samples, _ = trimesh.sample.sample_surface(trimesh.Trimesh(mesh.vertices, mesh.faces, process=False),
+                                               100_000, seed=0)
+    d, near = cKDTree(net.positions).query(samples)
+    cover = cover_radius(net)
+    inscribed = np.cos(np.pi / 6) * np.clip(COVER_MARGIN * cover / np.cos(np.pi / 6), 0.8 * net.cs, 1.6 * net.cs)
+    assert np.mean(d > inscribed[near]) < 1e-3
+    assert np.mean(d > np.cos(np.pi / 6) * 0.8 * net.cs) > 5e-3     # fixed 0.8 cs splats: speckles
+    mesh_out = splat_mesh(net, np.ones((net.n_cells, 3)))
+    corners = mesh_out.vertices.reshape(-1, 6, 3)
+    assert np.allclose(np.linalg.norm(corners - net.positions[:, None], axis=2).max(axis=1),
+                       inscribed / np.cos(np.pi / 6))
+    # a flat triangle lattice keeps its 0.8 cs splats: interior regions reach cs / sqrt 3
+    flat = lattice("triangle", 12.0)
+    inner = flat.degree == 6
+    assert np.all(cover_radius(flat)[inner] <= flat.cs / math.sqrt(3) + 1e-9)
+    assert np.all(cover_radius(flat)[inner] > 0.5 * flat.cs)
