@@ -6,9 +6,11 @@ integer triples (Figure 4 names A(5,5,0), B(5,5,-4), C(5,5,-7)), and a cell is c
 with the cells of its own box and the 26 around it (Figure 3).  The paper keeps the boxes in
 sorted doubly-linked lists, x first, then y per x node, then z per (x, y) node.  Here the same
 three sorted levels are flat arrays: the distinct x indices, the distinct (x, y) columns and
-the boxes, each sorted, with a CSR from box to cells.  Looking a box up walks the three levels
-with ``searchsorted`` (no key packing that could overflow: ranks stay below the box count), and
-moving cells re-files only the cells whose box changed, creating and freeing boxes as needed.
+the boxes, each sorted, with a CSR from box to cells.  Looking a box up is one ``searchsorted``
+of keys packed into an int64 when the occupied block fits (it keeps the (x, y, z) order), else a
+walk down the three levels with ranks only (never overflows), and moving cells re-files only the
+cells whose box changed, creating and freeing boxes as needed.  The README says why these
+sorted arrays are the paper's linked lists in another form.
 
 The 27-box search finds every partner within ``bs`` only.  The paper allows kb = 1, but every
 link radius r_i is larger than cs (section 4.3), so a partner can sit two boxes away: the
