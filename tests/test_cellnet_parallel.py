@@ -6,6 +6,7 @@ import pytest
 
 from procgen import RecipeError
 from procgen.ca.lifelike import life_step, parse_rule
+from _cellnet import permuted
 from procgen_cellnet.boxes import pairs_kdtree
 from procgen_cellnet.colour import spread
 from procgen_cellnet.melting import melt_step
@@ -82,20 +83,10 @@ def test_gated_life_is_conways_life_when_every_cell_is_active():
                           life_step(g, alive, lut))
 
 
-def _permuted(net, perm):
-    inv = np.argsort(perm)
-    links = np.sort(inv[net.links], axis=1)
-    out = CellNetwork(net.positions[perm], links[np.lexsort(links.T[::-1])], cs=net.cs,
-                      grid=net.grid, radius=net.radius)
-    for name in net.field_names():
-        out.add_field(name, np.asarray(net[name])[perm], at="cell")
-    return out
-
-
 def test_one_step_commutes_with_cell_permutation():
     net = network(3)
     perm = np.random.default_rng(4).permutation(net.n_cells)
-    pnet = _permuted(net, perm)
+    pnet = permuted(net, perm)
     a, _ = parallel_step(net, MIX, *gates(net))
     b, _ = parallel_step(pnet, MIX, *gates(pnet))
     assert np.allclose(a.positions[perm], b.positions)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from procgen import State
+from _cellnet import permuted
 from procgen_cellnet.activation import ActivatorInhibitor
 from procgen_cellnet.boxes import BoxIndex, pairs_kdtree
 from procgen_cellnet.cracks import CrackDerivative
@@ -79,21 +80,12 @@ def test_watercolour_water_falls_by_at_most_dp_per_wet_cell_and_weight():
         p = new_p
 
 
-def _permuted(net, perm):
-    inv = np.argsort(perm)
-    links = np.sort(inv[net.links], axis=1)
-    out = CellNetwork(net.positions[perm], links[np.lexsort(links.T[::-1])], cs=net.cs,
-                      grid=net.grid, radius=net.radius)
-    out.add_field("cell__normal", net.normals()[perm], at="cell")
-    return out
-
-
 def test_watercolour_commutes_with_cell_permutation():
     net = lattice("hexagon", 16.0)
     n = net.n_cells
     rng = np.random.default_rng(2)
     perm = rng.permutation(n)
-    pnet = _permuted(net, perm)
+    pnet = permuted(net, perm)
     gs = rng.choice([SLEEPING, RECEIVING, INFLUENCING, ACTIVE], n).astype(np.int8)
     p = np.where(rng.random(n) < 0.5, rng.random(n), 0.0)
     pig = rng.random((n, 3)).astype(np.float32)
