@@ -195,16 +195,18 @@ def spread(net, color: np.ndarray, colored: np.ndarray, send: np.ndarray, update
 
     vc <- (vc + sum vc_n) / (kc + 1) over the coloured sending neighbours; an uncoloured cell
     (own term 0) divides by kc only unless ``literal``.  Computed in the colours' precision
-    with the network's precomputed sending matrix: one (n, 3) product per step.
+    with the network's precomputed sending / averaging matrices: one (n, 3) product per step.
     """
     dtype = np.float32 if np.asarray(color).dtype == np.float32 else np.float64
-    g, k = net.sending(send, dtype)
     colored = np.asarray(colored, bool)
-    if colored.all():
-        own, kc = np.asarray(color, dtype), k
-    else:
-        own = np.where(colored[:, None], color, 0).astype(dtype)
-        kc = g @ colored.astype(dtype)
+    if colored.all():                  # the usual steady state: one averaging product
+        out_c = (net.averaging(send, dtype) @ np.asarray(color, dtype)).astype(np.float32, copy=False)
+        if not update.all():
+            np.copyto(out_c, color, where=~update[:, None])
+        return out_c, colored.copy()
+    g, _ = net.sending(send, dtype)
+    own = np.where(colored[:, None], color, 0).astype(dtype)
+    kc = g @ colored.astype(dtype)
     new = g @ own
     new += own
     new *= (1 / np.maximum(kc + (colored | literal), 1)).astype(dtype)[:, None]

@@ -138,6 +138,18 @@ class CellNetwork(Domain):
         self._gated[key] = (send.copy(), g, k)
         return g, k
 
+    def averaging(self, send: np.ndarray, dtype: Any = np.float64) -> sp.csr_matrix:
+        """M = diag(1 / (k + 1)) (I + G): ``M @ x`` is Table 1's (x + sum x_n) / (k + 1) over
+        the sending neighbours in one product (cached with :meth:`sending`)."""
+        key = "mean" + np.dtype(dtype).str
+        hit = self._gated.get(key)
+        if hit is not None and np.array_equal(hit[0], send):
+            return hit[1]
+        g, k = self.sending(send, dtype)
+        m = (sp.diags((1 / (k + 1)).astype(dtype)) @ (g + sp.identity(self.n_cells, dtype, format="csr"))).tocsr()
+        self._gated[key] = (np.asarray(send, bool).copy(), m, k)
+        return m
+
     def cell_centres(self) -> np.ndarray:
         """(n, 3) cell positions (the CA layer's seed_points are matched against these)."""
         return self.positions
