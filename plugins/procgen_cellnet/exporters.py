@@ -114,7 +114,7 @@ def cover_radius(net: CellNetwork) -> np.ndarray:
 
 
 def splat_mesh(net: CellNetwork, rgb: np.ndarray, splat: float = 0.8,
-               max_splat: float = 1.6) -> TriMesh:
+               max_splat: float = 1.2) -> TriMesh:
     """One hexagon per present cell, CCW about its normal, coloured.
 
     Its inscribed radius reaches ``COVER_MARGIN`` times the cell's Voronoi region
