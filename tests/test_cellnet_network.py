@@ -48,10 +48,13 @@ def test_random_grid_has_round_area_cells_per_plane():
     assert len(s.positions) == round(L * L / 0.49)
 
 
-@pytest.mark.parametrize("layout", ["random", "clustered", "far"])
+@pytest.mark.parametrize("layout", ["random", "clustered", "far", "scattered"])
 def test_every_method_gives_identical_links(layout):
     rng = np.random.default_rng(3)
-    if layout == "random":
+    if layout == "scattered":       # clusters 1e13 boxes apart: keys too spread to pack in int64
+        a = rng.random((500, 3)) * [10, 10, 4]
+        p = np.concatenate([a + np.array(o) * 2e13 for o in ([0, 0, 0], [1, -1, 1], [-1, 1, 0])])
+    elif layout == "random":
         p = rng.random((1500, 3)) * [20, 20, 4]
     elif layout == "clustered":     # two objects 1e-3 cs apart
         a = rng.random((700, 3)) * [10, 10, 0.2]
@@ -68,6 +71,11 @@ def test_every_method_gives_identical_links(layout):
     ib, im = BoxIndex.build(p, 2.0), BoxIndex.build(moved, 2.0)
     assert ib.n_boxes == im.n_boxes and np.array_equal(ib.counts, im.counts)
     assert np.array_equal(pairs_within(moved, r, im), boxes)
+    # the packed-key lookup and the walk down the x -> y -> z levels agree, present or not
+    assert (ib._packed is None) == (layout == "scattered")
+    q = np.concatenate([ib.keys, ib.keys + [0, 0, 1], ib.keys + [3, -2, 0], ib.keys * 2])
+    assert np.array_equal(ib.lookup(q), ib._walk(q))
+    assert np.array_equal(ib.lookup(ib.keys), np.arange(ib.n_boxes))
 
 
 def test_stencil_guard_catches_what_kb_1_misses():

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from _cellnet import permuted
 from procgen_cellnet.activation import ring_matrices
 from procgen_cellnet.boxes import pairs_kdtree
 from procgen_cellnet.colour import spread
@@ -97,20 +98,11 @@ def test_pruning_keeps_the_best_links(mode):
 
 
 # -- update discipline ---------------------------------------------------------------------------
-def _permuted(net, perm):
-    inv = np.argsort(perm)
-    links = np.sort(inv[net.links], axis=1)
-    out = CellNetwork(net.positions[perm], links[np.lexsort(links.T[::-1])], cs=net.cs,
-                      grid=net.grid, radius=net.radius)
-    out.add_field("cell__normal", net.normals()[perm], at="cell")
-    return out
-
-
 def test_synchronous_rules_commute_with_cell_permutation():
     net = lattice("triangle", 16.0, z=lambda p: 0.3 * np.sin(p[:, 0]))
     rng = np.random.default_rng(1)
     perm = rng.permutation(net.n_cells)
-    pnet = _permuted(net, perm)
+    pnet = permuted(net, perm)
     gs = rng.choice([SLEEPING, RECEIVING, INFLUENCING, ACTIVE], net.n_cells).astype(np.int8)
     color = rng.random((net.n_cells, 3)).astype(np.float32)
     colored = rng.random(net.n_cells) < 0.3

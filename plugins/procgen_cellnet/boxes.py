@@ -6,9 +6,11 @@ integer triples (Figure 4 names A(5,5,0), B(5,5,-4), C(5,5,-7)), and a cell is c
 with the cells of its own box and the 26 around it (Figure 3).  The paper keeps the boxes in
 sorted doubly-linked lists, x first, then y per x node, then z per (x, y) node.  Here the same
 three sorted levels are flat arrays: the distinct x indices, the distinct (x, y) columns and
-the boxes, each sorted, with a CSR from box to cells.  Looking a box up walks the three levels
-with ``searchsorted`` (no key packing that could overflow: ranks stay below the box count), and
-moving cells re-files only the cells whose box changed, creating and freeing boxes as needed.
+the boxes, each sorted, with a CSR from box to cells.  Looking a box up is one ``searchsorted``
+of keys packed into an int64 when the occupied block fits (it keeps the (x, y, z) order), else a
+walk down the three levels with ranks only (never overflows), and moving cells re-files only the
+cells whose box changed, creating and freeing boxes as needed.  The README says why these
+sorted arrays are the paper's linked lists in another form.
 
 The 27-box search finds every partner within ``bs`` only.  The paper allows kb = 1, but every
 link radius r_i is larger than cs (section 4.3), so a partner can sit two boxes away: the
@@ -38,16 +40,30 @@ CHUNK_PAIRS = 4_000_000
 def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sorted unique rows, first index of each, row of every input) of an integer array.
 
-    A lexsort and one pass: much faster than ``np.unique(axis=0)`` on millions of rows.
+    One stable sort of the rows packed into an int64 when their bounding block fits (else a
+    lexsort): much faster than ``np.unique(axis=0)`` on millions of rows.
     """
     a = np.asarray(a)
-    order = np.lexsort(a.T[::-1])
-    sa = a[order]
-    first = np.ones(len(a), bool)
-    first[1:] = np.any(sa[1:] != sa[:-1], axis=1)
+    if len(a) == 0:
+        return a.reshape(0, a.shape[1]), np.zeros(0, np.int64), np.zeros(0, np.int64)
+    lo = a.min(axis=0)
+    span = [int(s) for s in a.max(axis=0) - lo + 1]
+    if math.prod(span) < 2 ** 62:
+        key = np.zeros(len(a), np.int64)
+        for c, s in enumerate(span):
+            key = key * s + (a[:, c] - lo[c])
+        order = np.argsort(key, kind="stable")
+        sk = key[order]
+        first = np.ones(len(a), bool)
+        first[1:] = sk[1:] != sk[:-1]
+    else:
+        order = np.lexsort(a.T[::-1])
+        sa = a[order]
+        first = np.ones(len(a), bool)
+        first[1:] = np.any(sa[1:] != sa[:-1], axis=1)
     inverse = np.empty(len(a), np.int64)
     inverse[order] = np.cumsum(first) - 1
-    return sa[first], order[first], inverse
+    return a[order[first]], order[first], inverse
 
 
 def box_keys(points: np.ndarray, size: float) -> np.ndarray:
@@ -120,9 +136,43 @@ class BoxIndex:
         """Distinct (x, y) columns (the DDST's y-list nodes)."""
         return len(self._ranks[2])
 
+    @cached_property
+    def _packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(lowest key - 1, span, packed keys) when the keys' bounding block (one box of margin
+        each side) packs into one int64, else None.  Packing is row-major, so the packed keys
+        keep the lexicographic order: a lookup is then one ``searchsorted``."""
+        if self.n_boxes == 0:
+            return None
+        lo = self.keys.min(axis=0) - 1
+        span = self.keys.max(axis=0) - lo + 2
+        if math.prod(int(s) for s in span) >= 2 ** 62:
+            return None
+        return lo, span, self._pack(self.keys, lo, span)
+
+    @staticmethod
+    def _pack(q: np.ndarray, lo: np.ndarray, span: np.ndarray) -> np.ndarray:
+        r = q - lo
+        return (r[:, 0] * span[1] + r[:, 1]) * span[2] + r[:, 2]
+
     def lookup(self, queries: np.ndarray) -> np.ndarray:
-        """Box id of each (q, 3) integer box index, -1 where that box does not exist."""
+        """Box id of each (q, 3) integer box index, -1 where that box does not exist.
+
+        Through the packed keys when they fit in an int64 (any scene whose box extent is not
+        astronomically large, wherever it sits), else by walking the three sorted levels
+        (ranks only: never overflows).  Both give the same ids (tested).
+        """
         q = np.asarray(queries, np.int64).reshape(-1, 3)
+        packed = self._packed
+        if packed is not None:
+            lo, span, keys = packed
+            r = q - lo
+            inside = (r[:, 0] >= 0) & (r[:, 1] >= 0) & (r[:, 2] >= 0)
+            inside &= (r[:, 0] < span[0]) & (r[:, 1] < span[1]) & (r[:, 2] < span[2])
+            return np.where(inside, _find(keys, np.where(inside, self._pack(q, lo, span), -1)), -1)
+        return self._walk(q)
+
+    def _walk(self, q: np.ndarray) -> np.ndarray:
+        """:meth:`lookup` by the x -> (x, y) -> (x, y, z) levels."""
         uy, uz, columns, full = self._ranks
         rx, ry, rz = _find(self.x_nodes, q[:, 0]), _find(uy, q[:, 1]), _find(uz, q[:, 2])
         ok = (rx >= 0) & (ry >= 0) & (rz >= 0)
@@ -171,8 +221,13 @@ class BoxIndex:
         """Every pair (a, b) of existing boxes that touch, a itself included, each pair once."""
         src = [np.arange(self.n_boxes)]
         dst = [np.arange(self.n_boxes)]
+        packed = self._packed
         for off in HALF_STENCIL:
-            nb = self.lookup(self.keys + off)
+            if packed is not None:      # the margin keeps key + off inside the packed block
+                lo, span, keys = packed
+                nb = _find(keys, keys + int((off[0] * span[1] + off[1]) * span[2] + off[2]))
+            else:
+                nb = self._walk(self.keys + off)
             ok = nb >= 0
             src.append(np.nonzero(ok)[0])
             dst.append(nb[ok])
@@ -199,23 +254,43 @@ def check_stencil(radius: float, size: float, cs: float, where: str = "cellnet.l
                          f"(use kb >= {math.ceil(radius / cs - 1e-12)})")
 
 
-def _distances(points: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    d = points[i] - points[j]
-    return np.sqrt(np.einsum("ij,ij->i", d, d))
+def _near(points: np.ndarray, i: np.ndarray, j: np.ndarray, radius: float) -> np.ndarray:
+    """``|p_i - p_j| < radius`` for each pair, one expression shared by every linker.
+
+    ``points`` is (n, 3) or its three coordinate columns; dx^2 + dy^2 + dz^2 in that order and
+    one comparison against radius^2, so the box search, cKDTree and brute force agree bit for
+    bit on pairs at exactly the radius.
+    """
+    cols = points if isinstance(points, tuple) else tuple(np.ascontiguousarray(points[:, k])
+                                                          for k in range(3))
+    d2 = np.zeros(len(i))
+    for c in cols:
+        d = c[i] - c[j]
+        d2 += d * d
+    return d2 < radius * radius
 
 
 def pairs_within(points: np.ndarray, radius: float, index: BoxIndex,
                  guard: bool = True) -> np.ndarray:
     """All cell pairs (i < j) closer than ``radius``, from the 27-box search of ``index``.
 
-    ``guard=False`` runs the stencil even when boxes are smaller than the radius, which shows
-    the links kb = 1 loses (paper section 4, the stencil flaw).
+    Cells are taken box after box (the index's order), so a box's cells are one contiguous
+    run and the partners of a cell in a touching box are one run too: every candidate pair is
+    made by two flat expansions (box pair -> cell of the first box -> run of the second) with
+    no division, and the coordinates it reads are close in memory.  A cell farther than
+    ``radius`` from the cube of a touching box skips that box's run; inside one box only the
+    cells after a cell are taken, so every pair is met once.  ``guard=False`` runs the stencil
+    even when boxes are smaller than the radius, which shows the links kb = 1 loses (paper
+    section 4, the stencil flaw).
     """
     if guard and index.size < radius:
         raise InputError(f"box search: box side {index.size:g} < link radius {radius:g} "
                          "would miss links")
+    order, start, cnt, size = index.order, index.start, index.counts, index.size
+    cols = tuple(np.ascontiguousarray(np.asarray(points, float)[order, k]) for k in range(3))
+    # a cell sits in its box's cube up to rounding of floor(p / bs) far from the origin
+    pad = 1e-9 * size + 16 * float(np.spacing(max((np.abs(c).max() for c in cols), default=0.0)))
     src, dst = index.box_pairs()
-    cnt = index.counts
     work = cnt[src] * cnt[dst]
     bounds = np.searchsorted(np.cumsum(work), np.arange(CHUNK_PAIRS, work.sum() + CHUNK_PAIRS,
                                                         CHUNK_PAIRS), side="right")
@@ -225,17 +300,26 @@ def pairs_within(points: np.ndarray, radius: float, index: BoxIndex,
         if hi <= lo:
             continue
         a, b = src[lo:hi], dst[lo:hi]
-        na, nb = cnt[a], cnt[b]
-        w = na * nb
-        pair = np.repeat(np.arange(len(a)), w)
-        t = np.arange(w.sum()) - np.repeat(np.cumsum(w) - w, w)
-        nbp = nb[pair]
-        ci = index.order[index.start[a[pair]] + t // nbp]
-        cj = index.order[index.start[b[pair]] + t % nbp]
-        keep = (ci != cj) & ((a[pair] != b[pair]) | (ci < cj))
-        ci, cj = ci[keep], cj[keep]
-        near = _distances(points, ci, cj) < radius
-        out.append(np.column_stack([np.minimum(ci, cj), np.maximum(ci, cj)])[near])
+        # level 1: every cell i of box a (sorted position) with the run of partners in box b
+        na = cnt[a]
+        i = np.repeat(start[a] - (np.cumsum(na) - na), na) + np.arange(na.sum())
+        same = np.repeat(a == b, na)
+        bb = np.repeat(b, na)
+        gap2 = np.zeros(len(i))
+        for k in range(3):          # squared distance from the cell to box b's padded cube
+            low = index.keys[bb, k] * size - pad
+            g = np.maximum(np.maximum(low - cols[k][i], cols[k][i] - (low + size + 2 * pad)), 0.0)
+            gap2 += g * g
+        reach = same | (gap2 < radius * radius)
+        i, same, bb = i[reach], same[reach], bb[reach]
+        j0 = np.where(same, i + 1, start[bb])
+        nj = np.where(same, start[bb + 1] - i - 1, cnt[bb])
+        # level 2: every (i, j) of those runs
+        ci = np.repeat(i, nj)
+        cj = np.repeat(j0 - (np.cumsum(nj) - nj), nj) + np.arange(nj.sum())
+        near = _near(cols, ci, cj, radius)
+        ci, cj = order[ci[near]], order[cj[near]]
+        out.append(np.column_stack([np.minimum(ci, cj), np.maximum(ci, cj)]))
         lo = hi
     return canonical_links(np.concatenate(out) if out else np.zeros((0, 2), np.int64))
 
@@ -243,23 +327,27 @@ def pairs_within(points: np.ndarray, radius: float, index: BoxIndex,
 def canonical_links(pairs: np.ndarray) -> np.ndarray:
     """Links as (m, 2) int64 rows i < j, sorted, without duplicates."""
     p = np.asarray(pairs, np.int64).reshape(-1, 2)
-    p = np.column_stack([p.min(axis=1), p.max(axis=1)])
-    p = p[p[:, 0] != p[:, 1]]
-    if len(p) == 0:
-        return p
-    n = int(p.max()) + 1
-    key = np.sort(p[:, 0] * n + p[:, 1])         # one int64 per pair: sorts as (i, j)
+    lo, hi = np.minimum(p[:, 0], p[:, 1]), np.maximum(p[:, 0], p[:, 1])
+    if len(p) == 0 or not np.any(lo != hi):
+        return np.zeros((0, 2), np.int64)
+    n = int(hi.max()) + 1
+    key = lo * n + hi                            # one int64 per pair: sorts as (i, j)
+    key = np.sort(key[lo != hi])
     key = key[np.concatenate([[True], key[1:] != key[:-1]])]
-    return np.column_stack([key // n, key % n])
+    out = np.empty((len(key), 2), np.int64)
+    np.floor_divide(key, n, out=out[:, 0])
+    np.subtract(key, out[:, 0] * n, out=out[:, 1])
+    return out
 
 
 def pairs_kdtree(points: np.ndarray, radius: float) -> np.ndarray:
     """The same link set from scipy's cKDTree (candidates within a hair more, then ``< r``)."""
     from scipy.spatial import cKDTree
 
-    cand = cKDTree(points).query_pairs(radius * (1 + 1e-9), output_type="ndarray")
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)    # its fastest build
+    cand = tree.query_pairs(radius * (1 + 1e-9), output_type="ndarray")
     cand = cand.astype(np.int64).reshape(-1, 2)
-    return canonical_links(cand[_distances(points, cand[:, 0], cand[:, 1]) < radius])
+    return canonical_links(cand[_near(points, cand[:, 0], cand[:, 1], radius)])
 
 
 #: largest cell count the brute-force linker accepts (n^2 / 2 distances)
@@ -273,5 +361,5 @@ def pairs_brute(points: np.ndarray, radius: float) -> np.ndarray:
         raise InputError(f"cellnet.link: method 'brute' tests every pair; {n} cells is more than "
                          f"{BRUTE_MAX}")
     i, j = np.triu_indices(n, 1)
-    near = _distances(points, i, j) < radius
+    near = _near(points, i, j, radius)
     return canonical_links(np.column_stack([i[near], j[near]]))

@@ -1,4 +1,4 @@
-"""What every CA rule of the family shares: the network, the selection, the gates, the sums.
+"""What every CA rule of the family shares: the network, the selection, the gates.
 
 A rule reads the time-t arrays, computes the t + 1 arrays for every cell at once and writes
 them back (Table 1's double buffer: nothing a step writes is read by the same step).  The
@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 
 from procgen import InputError, RuleBase, State, param
 
@@ -47,18 +46,6 @@ class CellRule(RuleBase):
     def gates(self, net: CellNetwork) -> tuple[np.ndarray, np.ndarray]:
         """(send, update): neighbours that count; selected receiving cells that change."""
         return gates(net, self.materials, self.labels, self.name)
-
-
-def adjacency(net: CellNetwork) -> sp.csr_matrix:
-    """Symmetric n x n 0/1 link matrix: ``A @ x`` sums x over every cell's linked neighbours."""
-    return net.matrix
-
-
-def neighbour_sum(net: CellNetwork, values: np.ndarray, send: np.ndarray) -> np.ndarray:
-    """Sum of ``values`` over each cell's *sending* neighbours (rows of any trailing shape)."""
-    v = np.asarray(values, float)
-    masked = v * (send.reshape((-1,) + (1,) * (v.ndim - 1)))
-    return adjacency(net) @ masked
 
 
 def changed(old: np.ndarray, new: np.ndarray) -> bool:

@@ -16,7 +16,7 @@ import numpy as np
 
 from procgen import FieldSpec, InputError, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule, adjacency, changed
+from .cellrule import EXAMPLE_NET, CellRule, changed
 from .network import CellNetwork
 from .states import LABEL_FIELD, STATE_NAMES, put_states, selection, states
 
@@ -191,20 +191,29 @@ def palette_colours(palette: list[list[float]] | None, n: int, rng: np.random.Ge
 
 def spread(net, color: np.ndarray, colored: np.ndarray, send: np.ndarray, update: np.ndarray,
            literal: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """One synchronous spreading step (Table 1 "Spreading col."): the t + 1 colours."""
-    src = send & colored
-    both = adjacency(net) @ np.column_stack([color * src[:, None], src])   # one product
-    total, kc = both[:, :3], both[:, 3]
-    own = np.where(colored[:, None], color, 0.0)
-    mean_self = (own + total) / (kc + 1)[:, None]
-    if literal:
-        new = mean_self
-    else:
-        take = ~colored & (kc > 0)
-        new = np.where(colored[:, None], mean_self,
-                       np.where(take[:, None], total / np.maximum(kc, 1)[:, None], color))
+    """One synchronous spreading step (Table 1 "Spreading col."): the t + 1 colours.
+
+    vc <- (vc + sum vc_n) / (kc + 1) over the coloured sending neighbours; an uncoloured cell
+    (own term 0) divides by kc only unless ``literal``.  Computed in the colours' precision
+    with the network's precomputed sending / averaging matrices: one (n, 3) product per step.
+    """
+    dtype = np.float32 if np.asarray(color).dtype == np.float32 else np.float64
+    colored = np.asarray(colored, bool)
+    if colored.all():                  # the usual steady state: one averaging product
+        out_c = (net.averaging(send, dtype) @ np.asarray(color, dtype)).astype(np.float32, copy=False)
+        if not update.all():
+            np.copyto(out_c, color, where=~update[:, None])
+        return out_c, colored.copy()
+    g, _ = net.sending(send, dtype)
+    own = np.where(colored[:, None], color, 0).astype(dtype)
+    kc = g @ colored.astype(dtype)
+    new = g @ own
+    new += own
+    new *= (1 / np.maximum(kc + (colored | literal), 1)).astype(dtype)[:, None]
     ok = update & (colored | (kc > 0))
-    out_c = np.where(ok[:, None], new, color).astype(np.float32)
+    out_c = new.astype(np.float32, copy=False)
+    if not ok.all():
+        np.copyto(out_c, color, where=~ok[:, None])
     return out_c, colored | (update & (kc > 0))
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from procgen import FieldSpec, InputError, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule, adjacency
+from .cellrule import EXAMPLE_NET, CellRule
 from .states import LABEL_FIELD, TRANSPARENT, put_states, states
 
 POTENTIAL = "corrosion__potential"
@@ -27,9 +27,8 @@ POTENTIAL = "corrosion__potential"
 def countdown(p: np.ndarray, gs: np.ndarray, send: np.ndarray, update: np.ndarray, net,
               max_p: np.ndarray, dp: float) -> tuple[np.ndarray, np.ndarray]:
     """One synchronous corrosion step: (p, gs) at t + 1 from t."""
-    A = adjacency(net)
-    k = A @ send.astype(float)
-    kp = A @ (send & (p > 0)).astype(float)
+    g, k = net.sending(send)
+    kp = g @ (p > 0).astype(float)
     new_p, new_gs = p.copy(), gs.copy()
     alive = update & (p > 0)
     new_p[alive] = p[alive] - dp

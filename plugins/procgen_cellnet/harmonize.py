@@ -8,7 +8,9 @@ undefined a.  Taking a = k/(cs ri) (the d^2 coefficient) makes it factor exactly
 F(0) = k (the maximum repulsion), F = 0 at the rest length cs and at ri, attraction in between
 (Figure 7's parabola), repulsion again beyond ri.  F > 0 pushes the pair apart.  The summed
 pair forces move each cell by dt * F (explicit Euler, the step the paper leaves open), kept in
-the cell's tangent plane; sleeping cells stay fixed.  Afterwards each cell keeps its lg best
+the cell's tangent plane; sleeping cells stay fixed.  With ``surface`` set, every moved cell
+is put back at its closest point on the source polygons after each step (the paper is silent:
+tangent moves alone lift cells off a curved surface).  Afterwards each cell keeps its lg best
 links (smallest |d - cs|; lg = 4/8, 6, 3 for square, triangle, hexagon, 6 for random),
 ``mutual`` keeping a link only if both ends keep it.
 """
@@ -19,9 +21,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from procgen import State, param
+from procgen import State, TriMesh, param
 
 from .cellrule import CellRule
+from .projection import closest_on_mesh
 
 from .seeding import DEGREE
 
@@ -74,6 +77,14 @@ class NetworkHarmonization(CellRule):
     dt: float = param(0.2, gt=0.0, le=1.0, units="cs/k", doc="Euler step")
     tol: float = param(1e-3, ge=0.0, units="cs", doc="stable when no cell moves more than this")
     tangent: bool = param(True, doc="move cells in their tangent planes only")
+    surface: str | None = param(None, doc="TriMesh domain (the source polygons): put every moved "
+                                "cell back at its closest point on it after each step")
+
+    def domains_used(self) -> dict[str, str]:
+        used = super().domains_used()
+        if self.surface is not None:
+            used[self.surface] = "TriMesh"
+        return used
 
     def step(self, state: State) -> bool:
         net = self.network(state)
@@ -82,6 +93,11 @@ class NetworkHarmonization(CellRule):
         pos, links, disp = harmonize_step(net.positions, net.normals(), net.links, update, cs,
                                           net.radius, self.k, self.dmax * cs, self.dt * cs / self.k,
                                           self.tangent)
+        if self.surface is not None:
+            mesh = state.get(self.surface, TriMesh)
+            moved = np.any(disp != 0, axis=1)
+            pos[moved] = closest_on_mesh(pos[moved], mesh.vertices, mesh.faces)[0]
+            disp = pos - net.positions
         out = net.with_positions(pos)
         if len(links) != net.n_links:
             out = out.with_links(links)

@@ -16,20 +16,25 @@ import numpy as np
 
 from procgen import FieldSpec, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule, adjacency
+from .cellrule import EXAMPLE_NET, CellRule
 
 
 def melt_step(net, send: np.ndarray, update: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(positions, normals) at t + 1."""
+    """(positions, normals) at t + 1: two products with the precomputed sending matrix."""
+    g, k = net.sending(send)
     n = net.normals()
-    s = send[:, None]
-    sums = adjacency(net) @ np.column_stack([net.positions * s, n * s, s])   # one product
-    k = sums[:, 6]
-    pos = (net.positions + sums[:, :3]) / (k + 1)[:, None]
-    nn = n + sums[:, 3:6]
-    ln = np.linalg.norm(nn, axis=1, keepdims=True)
-    nn = np.where(ln > 1e-12, nn / np.maximum(ln, 1e-300), n)
-    return (np.where(update[:, None], pos, net.positions), np.where(update[:, None], nn, n))
+    pos = g @ net.positions
+    pos += net.positions
+    pos *= (1 / (k + 1))[:, None]
+    nn = g @ n
+    nn += n
+    ln = np.sqrt(np.einsum("ij,ij->i", nn, nn))
+    nn *= (1 / np.maximum(ln, 1e-300))[:, None]
+    keep = ~update[:, None] | (ln <= 1e-12)[:, None]      # a cancelled normal keeps its own
+    np.copyto(nn, n, where=keep)
+    if not update.all():
+        np.copyto(pos, net.positions, where=~update[:, None])
+    return pos, nn
 
 
 @dataclass(kw_only=True)

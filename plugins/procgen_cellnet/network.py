@@ -63,6 +63,7 @@ class CellNetwork(Domain):
         self.grid = str(grid)
         self.radius = float(radius)
         self._boxes: dict[float, BoxIndex] = {}
+        self._gated: dict[str, tuple[np.ndarray, sp.csr_matrix, np.ndarray]] = {}
 
     # -- sizes ----------------------------------------------------------------------------
     @property
@@ -89,13 +90,18 @@ class CellNetwork(Domain):
 
     @cached_property
     def csr(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(indptr, indices, link id of every entry): both directions of every link."""
-        i = np.concatenate([self.links[:, 0], self.links[:, 1]])
-        j = np.concatenate([self.links[:, 1], self.links[:, 0]])
-        lid = np.tile(np.arange(self.n_links), 2)
-        order = np.argsort(i * np.int64(self.n_cells) + j, kind="stable")
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(i, minlength=self.n_cells))])
-        return indptr.astype(np.int64), j[order], lid[order]
+        """(indptr, indices, link id of every entry): both directions of every link.
+
+        One counting sort by row (scipy's COO -> CSR); with the reversed directions listed
+        first, each row's neighbours come out ascending because the links are sorted (i, j).
+        """
+        m = self.n_links
+        rows = np.concatenate([self.links[:, 1], self.links[:, 0]])
+        cols = np.concatenate([self.links[:, 0], self.links[:, 1]])
+        lid = np.concatenate([np.arange(m), np.arange(m)])
+        a = sp.coo_array((lid, (rows, cols)), shape=(self.n_cells, self.n_cells)).tocsr()
+        return (a.indptr.astype(np.int64), a.indices.astype(np.int64),
+                a.data.astype(np.int64, copy=False))
 
     @cached_property
     def degree(self) -> np.ndarray:
@@ -107,6 +113,42 @@ class CellNetwork(Domain):
         indptr, indices, _ = self.csr
         return sp.csr_matrix((np.ones(len(indices)), indices, indptr),
                              shape=(self.n_cells, self.n_cells))
+
+    def sending(self, send: np.ndarray, dtype: Any = np.float64) -> tuple[sp.csr_matrix, np.ndarray]:
+        """(G, k): the link matrix with only the entries whose neighbour sends, and each cell's
+        number of sending neighbours (``dtype``).
+
+        The general-state gate of every rule (section 3.1: only ACTIVE / INFLUENCING cells
+        count) precomputed: ``G @ x`` sums x over the sending neighbours with no mask product
+        per step.  States change rarely, so the last gate per dtype is kept (a mask compare
+        per step) and shared with the moved networks of :meth:`with_positions`.
+        """
+        send = np.asarray(send, bool)
+        key = np.dtype(dtype).str
+        hit = self._gated.get(key)
+        if hit is not None and np.array_equal(hit[0], send):
+            return hit[1], hit[2]
+        indptr, indices, _ = self.csr
+        keep = send[indices]
+        rows = np.repeat(np.arange(self.n_cells), np.diff(indptr))[keep]
+        ptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=self.n_cells))])
+        g = sp.csr_matrix((np.ones(len(rows), dtype), indices[keep], ptr),
+                          shape=(self.n_cells, self.n_cells))
+        k = np.diff(ptr).astype(dtype)
+        self._gated[key] = (send.copy(), g, k)
+        return g, k
+
+    def averaging(self, send: np.ndarray, dtype: Any = np.float64) -> sp.csr_matrix:
+        """M = diag(1 / (k + 1)) (I + G): ``M @ x`` is Table 1's (x + sum x_n) / (k + 1) over
+        the sending neighbours in one product (cached with :meth:`sending`)."""
+        key = "mean" + np.dtype(dtype).str
+        hit = self._gated.get(key)
+        if hit is not None and np.array_equal(hit[0], send):
+            return hit[1]
+        g, k = self.sending(send, dtype)
+        m = (sp.diags((1 / (k + 1)).astype(dtype)) @ (g + sp.identity(self.n_cells, dtype, format="csr"))).tocsr()
+        self._gated[key] = (np.asarray(send, bool).copy(), m, k)
+        return m
 
     def cell_centres(self) -> np.ndarray:
         """(n, 3) cell positions (the CA layer's seed_points are matched against these)."""
@@ -150,6 +192,7 @@ class CellNetwork(Domain):
         for name in ("csr", "degree", "matrix"):
             if name in self.__dict__:
                 out.__dict__[name] = self.__dict__[name]
+        out._gated = dict(self._gated)
         return out
 
     def with_links(self, links: np.ndarray, radius: float | None = None) -> "CellNetwork":
@@ -186,10 +229,16 @@ def link_directions(positions: np.ndarray, normals: np.ndarray, rows: np.ndarray
                     cols: np.ndarray, cs: float) -> np.ndarray:
     """Moore slot (0..7) of every directed link in the tangent frame of its first cell."""
     u, w = tangent_frames(normals)
-    d = positions[cols] - positions[rows]
-    a = np.einsum("ij,ij->i", d, u[rows])
-    b = np.einsum("ij,ij->i", d, w[rows])
-    diag = np.sqrt(np.einsum("ij,ij->i", d, d)) > DIAGONAL_CS * cs
+    a = np.zeros(len(rows))
+    b = np.zeros(len(rows))
+    d2 = np.zeros(len(rows))
+    for k in range(3):                  # one coordinate at a time: no (m, 3) temporaries
+        pk = np.ascontiguousarray(positions[:, k])
+        d = pk[cols] - pk[rows]
+        a += d * np.ascontiguousarray(u[:, k])[rows]
+        b += d * np.ascontiguousarray(w[:, k])[rows]
+        d2 += d * d
+    diag = d2 > (DIAGONAL_CS * cs) ** 2
     side_a = np.abs(a) >= np.abs(b)
     di = np.where(diag | side_a, np.where(a >= 0, 1, -1), 0)
     dj = np.where(diag | ~side_a, np.where(b >= 0, 1, -1), 0)

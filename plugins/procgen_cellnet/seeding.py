@@ -107,6 +107,13 @@ def lattice_basis(grid: str, cs: float) -> tuple[np.ndarray, np.ndarray]:
             np.array([[0.0, 0.0], [0.0, cs]]))
 
 
+def lattice_points(i: np.ndarray, j: np.ndarray, basis: np.ndarray, site: np.ndarray) -> np.ndarray:
+    """(k, 2) plane coordinates of lattice nodes i * e1 + j * e2 + site."""
+    site = np.asarray(site, float).reshape(-1, 2)
+    return np.column_stack([i * basis[0, 0] + j * basis[0, 1] + site[:, 0],
+                            i * basis[1, 0] + j * basis[1, 1] + site[:, 1]])
+
+
 def _inside(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, tol: float) -> np.ndarray:
     """Closed point-in-triangle test in 2-D (either winding), with a tolerance in length."""
     def side(p0, p1):
@@ -117,6 +124,39 @@ def _inside(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, tol: flo
     pos = (s0 >= -tol) & (s1 >= -tol) & (s2 >= -tol)
     neg = (s0 <= tol) & (s1 <= tol) & (s2 <= tol)
     return pos | neg
+
+
+def _row_spans(ij: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate lattice nodes (face, i, j) of triangles given in lattice coordinates (m, 3, 2).
+
+    Row by row (integer j): the i-interval where the row crosses the triangle's edges, one
+    node wider each side, so the candidates are a superset of the nodes the closed inside test
+    keeps and barely more (a bounding box would test twice the nodes of a big triangle).
+    """
+    jmin, jmax = ij[:, :, 1].min(axis=1), ij[:, :, 1].max(axis=1)
+    lo = np.floor(jmin - 1e-6).astype(np.int64)
+    rows = np.floor(jmax + 1e-6).astype(np.int64) - lo + 1
+    fid = np.repeat(np.arange(len(ij)), rows)
+    j = (np.arange(rows.sum()) - np.repeat(np.cumsum(rows) - rows, rows) + lo[fid]).astype(float)
+    ilo = np.full(len(j), np.inf)
+    ihi = np.full(len(j), -np.inf)
+    for k in range(3):
+        P, Q = ij[fid, k], ij[fid, (k + 1) % 3]
+        dj = Q[:, 1] - P[:, 1]
+        flat = np.abs(dj) < 1e-9
+        t = np.clip((j - P[:, 1]) / np.where(flat, 1.0, dj), 0.0, 1.0)
+        crosses = (j >= np.minimum(P[:, 1], Q[:, 1]) - 1e-6) & (j <= np.maximum(P[:, 1], Q[:, 1]) + 1e-6)
+        x = P[:, 0] + t * (Q[:, 0] - P[:, 0])
+        for x in (np.where(flat, P[:, 0], x), np.where(flat, Q[:, 0], x)):   # a flat edge: both ends
+            ilo = np.where(crosses, np.minimum(ilo, x), ilo)
+            ihi = np.where(crosses, np.maximum(ihi, x), ihi)
+    has = ihi >= ilo
+    fid, j, ilo, ihi = fid[has], j[has], ilo[has], ihi[has]
+    first = np.floor(ilo).astype(np.int64) - 1
+    count = np.ceil(ihi).astype(np.int64) + 1 - first + 1
+    row = np.repeat(np.arange(len(j)), count)
+    ci = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count) + first[row]
+    return fid[row], ci, j[row].astype(np.int64)
 
 
 def _lattice_cells(v: np.ndarray, f: np.ndarray, region: np.ndarray, frames: tuple[np.ndarray, ...],
@@ -131,15 +171,8 @@ def _lattice_cells(v: np.ndarray, f: np.ndarray, region: np.ndarray, frames: tup
     ids, face = [], []
     for s, site in enumerate(sites):
         ij = np.einsum("ab,mkb->mka", inv, uv - site)             # lattice coordinates
-        lo = np.floor(ij.min(axis=1)).astype(np.int64)
-        hi = np.ceil(ij.max(axis=1)).astype(np.int64)
-        ni, nj = hi[:, 0] - lo[:, 0] + 1, hi[:, 1] - lo[:, 1] + 1
-        count = ni * nj
-        fid = np.repeat(np.arange(len(f)), count)
-        t = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-        ci = lo[fid, 0] + t % ni[fid]
-        cj = lo[fid, 1] + t // ni[fid]
-        p = np.column_stack([ci, cj]) @ basis.T + site
+        fid, ci, cj = _row_spans(ij)
+        p = lattice_points(ci, cj, basis, site)
         q = uv[fid]
         ok = _inside(p, q[:, 0], q[:, 1], q[:, 2], 1e-9 * cs)
         ids.append(np.column_stack([region[fid[ok]], ci[ok], cj[ok], np.full(ok.sum(), s)]))
@@ -180,16 +213,23 @@ def _barycentric(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
     return np.column_stack([1 - b1 - b2, b1, b2])
 
 
-def merge_close(points: np.ndarray, distance: float) -> np.ndarray:
-    """Indices of the points to keep: of every group closer than ``distance``, the lowest index."""
+def merge_close(points: np.ndarray, distance: float, region: np.ndarray) -> np.ndarray:
+    """Indices of the points to keep: of every group closer than ``distance``, the lowest index.
+
+    Two nodes of one plane's lattice are at least a bond apart, so only cells of different
+    planes (across creases, where objects touch) can merge: a one-plane scene skips the search.
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    pairs = cKDTree(points).query_pairs(distance, output_type="ndarray")
-    if len(pairs) == 0:
-        return np.arange(len(points))
     n = len(points)
+    if n == 0 or np.all(region == region[0]):
+        return np.arange(n)
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)
+    pairs = tree.query_pairs(distance, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.arange(n)
     g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, comp = connected_components(g, directed=False)
     _, first = np.unique(comp, return_index=True)
@@ -236,10 +276,10 @@ def seed_cells(vertices: np.ndarray, faces: np.ndarray, grid: str, cs: float, *,
         ids, face = _lattice_cells(v, f, region, frames, grid, cs)
         origin, u, w = frames
         basis, sites = lattice_basis(grid, cs)
-        uv = ids[:, 1:3] @ basis.T + sites[ids[:, 3]]
+        uv = lattice_points(ids[:, 1], ids[:, 2], basis, sites[ids[:, 3]])
         r = ids[:, 0]
         pos = origin[r] + uv[:, :1] * u[r] + uv[:, 1:] * w[r]
-        keep = merge_close(pos, 0.25 * cs)
+        keep = merge_close(pos, 0.25 * cs, r)
         pos, face = snap(pos[keep], extent), face[keep]
     fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     fn /= np.linalg.norm(fn, axis=1, keepdims=True)

@@ -19,7 +19,7 @@ import numpy as np
 
 from procgen import FieldSpec, InputError, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule, adjacency, neighbour_sum
+from .cellrule import EXAMPLE_NET, CellRule
 from .colour import COLOR, colours, put_colours
 from .network import CellNetwork
 
@@ -29,13 +29,12 @@ WATER, PIGMENT, LAYER = "water__volume", "pigment__color", "paint__layer"
 def flow_step(net, p: np.ndarray, pig: np.ndarray, has: np.ndarray, send: np.ndarray,
               update: np.ndarray, dp: float, p_sat: float, mix: float):
     """One synchronous watercolour step: (p, pigment, has-pigment) at t + 1."""
-    A = adjacency(net)
-    k = A @ send.astype(float)
-    new_p = np.maximum((p + neighbour_sum(net, p, send)) / (k + 1) - dp, 0.0)
+    g, k = net.sending(send)
+    new_p = np.maximum((p + g @ p) / (k + 1) - dp, 0.0)
     h = np.clip(p / p_sat, 0.0, 1.0)
-    src = send & (p > 0) & has
-    ks = A @ src.astype(float)
-    m = neighbour_sum(net, pig, src) / np.maximum(ks, 1)[:, None]
+    wet = (p > 0) & has
+    ks = g @ wet.astype(float)
+    m = (g @ (pig * wet[:, None])) / np.maximum(ks, 1)[:, None]
     move = update & (ks > 0) & (p > 0)
     new_pig = np.where(move[:, None], pig + (mix * h)[:, None] * (m - pig), pig)
     return (np.where(update, new_p, p), new_pig.astype(np.float32), has | move)
