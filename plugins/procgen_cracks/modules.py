@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from procgen.ca.graph import MOORE
 from procgen.ca.subcell import AXIS_ANGLES, across_share, wrap_angle
 from procgen_surface.geometry import edge_half_planes
 from procgen_surface.neighbours import edge_frames, edge_topology
@@ -23,6 +24,12 @@ from .stress import FaceSampler
 
 _STATE = ("layer", "face", "xy", "ang", "K", "R", "crack", "ctype", "line", "cell", "prev",
           "anchor", "seg", "turn", "steps")
+
+
+def _direction_slot(vec: np.ndarray) -> np.ndarray:
+    """Moore slot nearest in angle to 2-D vectors (m, 2)."""
+    unit = MOORE / np.linalg.norm(MOORE, axis=1, keepdims=True)
+    return np.argmax(vec @ unit.T, axis=1)
 
 
 class FacetEdges:
@@ -130,23 +137,29 @@ class Modules:
     # -- birth --------------------------------------------------------------------------------
     def birth(self, cells: np.ndarray, layers: np.ndarray, types: np.ndarray,
               who: np.ndarray, heading: np.ndarray) -> None:
-        """Start cracks at cells (their centres); ``who``/``heading``: one row per CM."""
+        """Start cracks at cells (their centres, moved onto the facet for PART-IN cells);
+        ``who``/``heading``: one row per CM."""
         crack_ids = self.n_cracks + np.arange(len(cells))
         self.n_cracks += len(cells)
-        self.cracked[cells, layers] = True
-        self.crack_of[cells, layers] = crack_ids
+        face = self.cell_face[cells]
+        start = self._inside(face, self.center2d[cells])
+        first = self.sampler.cell_of(face, start)
+        first = np.where(first >= 0, first, cells)
+        for c in (cells, first):                       # the birth cell and the start's cell
+            self.cracked[c, layers] = True
+            self.crack_of[c, layers] = crack_ids
         imax = self.spec[cells, layers].max(axis=1)
-        c, lay = cells[who], layers[who]
+        c, lay = first[who], layers[who]
         K0 = self.rule.potential * imax[who]
-        start = self._inside(self.cell_face[c], self.center2d[c])
-        self._append(layer=lay, face=self.cell_face[c], xy=start, ang=heading, K=K0,
-                     R=imax[who], crack=crack_ids[who], ctype=types[who], cell=c, prev=c,
-                     anchor=start)
+        self._append(layer=lay, face=face[who], xy=start[who], ang=heading, K=K0,
+                     R=imax[who], crack=crack_ids[who], ctype=types[who], cell=c,
+                     prev=cells[who], anchor=start[who])
+        np.maximum.at(self.width, (cells[who], lay), self._width(self.cm["R"][-len(who):]))
         np.maximum.at(self.width, (c, lay), self._width(self.cm["R"][-len(who):]))
 
     def _inside(self, face: np.ndarray, xy: np.ndarray) -> np.ndarray:
-        """Points moved towards their facet's centroid until inside it (PART-IN cell centres
-        lie outside the triangle)."""
+        """Points moved towards their facet's centroid just far enough to lie on the facet
+        (a PART-IN cell's centre is off its triangle)."""
         d = self.edges.outside(face, xy)
         cen = self.sc.layout.frames.corners2d[face].mean(axis=1)
         dc = self.edges.outside(face, cen)
@@ -177,6 +190,13 @@ class Modules:
         infl = AXIS_ANGLES[k1] + np.pi / 2                    # across the strongest axis
         d = wrap_angle(infl - ang)
         d = np.where(d > np.pi / 2, d - np.pi, np.where(d <= -np.pi / 2, d + np.pi, d))
+        # influence nearly across the heading: either sense is as near, so turn to the side
+        # with less stress ahead (towards a crack that released it: plate 5.5's "drawn into")
+        amb = np.nonzero(above & (np.abs(np.abs(d) - np.pi / 2) < np.radians(15.0)))[0]
+        if len(amb):
+            left = self._side_stress(amb, lay, face, xy, hvec, 1.0)
+            right = self._side_stress(amb, lay, face, xy, hvec, -1.0)
+            d[amb] = np.where(left < right, 1.0, np.where(right < left, -1.0, np.sign(d[amb]))) * np.abs(d[amb])
         turn = np.where(above, (1.0 - r.inertia / 100.0) * d, 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             ratio = np.where(np.abs(d) > 1e-12, np.abs(turn) / np.abs(d), 0.0)
@@ -184,6 +204,7 @@ class Modules:
         new_ang = ang + turn
         fork = above & (s1 - s2 < r.fork_epsilon * mr) & (s2 > mr) & (cm["steps"] >= 2)
         cm["K"] = cm["K"] + r.potential * (s1 - mr) * r.step_length
+        self._drive = s1
         # 2. move, crossing facet edges
         step_vec = r.step_length * s * np.column_stack([np.cos(new_ang), np.sin(new_ang)])
         q = xy + step_vec
@@ -196,7 +217,15 @@ class Modules:
         cell_new = np.where(lost, cm["cell"], cell_new)
         entering = (cell_new != cm["cell"]) & ~lost
         collide = entering & self.cracked[cell_new, lay] & (cell_new != cm["prev"])
+        # two CMs entering one cell in the same step: the first (in CM order) cracks it and
+        # the others collide with it, as if the CMs had moved one after the other
+        cand = np.nonzero(entering & ~collide)[0]
+        _, first = np.unique(cell_new[cand] * self.n_layers + lay[cand], return_index=True)
+        late = np.ones(len(cand), bool)
+        late[first] = False
+        collide[cand[late]] = True
         new = entering & ~collide
+        self._bridge(np.nonzero(new & crossed)[0], cell_new, lay, hvec)
         self.cracked[cell_new[new], lay[new]] = True
         self.crack_of[cell_new[new], lay[new]] = cm["crack"][new]
         cm["prev"] = np.where(entering, cm["cell"], cm["prev"])
@@ -242,6 +271,35 @@ class Modules:
         tot = w.sum(axis=1, keepdims=True)
         vals = self.spec[np.maximum(cells, 0), lay[:, None]]          # (m, 4 cells, 4 axes)
         return np.einsum("mq,mqk->mk", w / np.where(tot > 0, tot, 1.0), vals), tot[:, 0] > 0
+
+    def _bridge(self, idx: np.ndarray, cell_new: np.ndarray, lay: np.ndarray, hvec: np.ndarray) -> None:
+        """After a facet crossing the new cell need not be a graph neighbour of the old one (the
+        grids do not line up): crack the old cell's neighbour ahead too, so a crack stays one
+        connected set of cells in the cross-edge graph."""
+        cm = self.cm
+        old = cm["cell"][idx]
+        far = ~(self.slots[old] == cell_new[idx, None]).any(axis=1)
+        idx, old = idx[far], old[far]
+        if len(idx) == 0:
+            return
+        slot = _direction_slot(hvec[idx])
+        mid = self.slots[old, slot]
+        ok = mid >= 0
+        idx, mid = idx[ok], mid[ok]
+        ok = ~self.cracked[mid, lay[idx]] & self.active[mid, lay[idx]]
+        idx, mid = idx[ok], mid[ok]
+        self.cracked[mid, lay[idx]] = True
+        self.crack_of[mid, lay[idx]] = cm["crack"][idx]
+        np.maximum.at(self.width, (mid, lay[idx]), self._width(cm["R"][idx]))
+
+    def _side_stress(self, idx: np.ndarray, lay: np.ndarray, face: np.ndarray, xy: np.ndarray,
+                     hvec: np.ndarray, side: float) -> np.ndarray:
+        """Strongest axis of the spectrum ahead and to one side (+1 left) of CMs ``idx``."""
+        r, s = self.rule, self.size
+        nrm = np.column_stack([-hvec[idx, 1], hvec[idx, 0]]) * side
+        pt = xy[idx] + r.lookahead * s * (hvec[idx] + nrm)
+        val, found = self._sample(lay[idx], face[idx], pt)
+        return np.where(found, val.max(axis=1), np.inf)
 
     def _cross(self, face: np.ndarray, xy: np.ndarray, q: np.ndarray, ang: np.ndarray):
         """Unfold steps that leave their facet into the neighbour's frame (up to 3 edges)."""
@@ -318,12 +376,16 @@ class Modules:
     def _release(self, sel: np.ndarray) -> np.ndarray:
         """Release stress across the last step of CMs ``sel`` (thesis 5.2.4.c, Figure 5.13).
 
-        Cells whose centre projects onto the step and lies within d of it lose, on each axis,
-        the share ``release * (1 - x/d) * |sin(axis - path)|``: the stress across the path, the
-        most on the path, falling linearly to 0 at distance d; stress along the path stays.
-        (A cell whose centre projects outside every step, at a sharp turn, gets none: the
-        thesis's Figure 5.13 flaw.)  Several CMs on one cell combine multiplicatively, so no
-        value goes negative.  Returns the stress released by each CM (0 for the others).
+        Cells whose centre projects onto the step and lies within d cells of it lose, on each
+        axis, ``release * S * (1 - x/d) * |sin(axis - path)|`` (clipped at what the cell holds),
+        S the stress driving the CM (its strongest axis ahead): the stress across the path, the
+        most on the path, falling linearly to 0 at distance d; stress along the path stays.  The
+        thesis makes the "release intensity" depend on the material and the crack thickness and
+        fall linearly (5.2.4.c); with ``release`` > 1 the across-path stress is gone in a band
+        along the crack, so that what remains there runs along it and an approaching crack turns
+        to meet it at about 90 degrees (plate 5.5).  (A cell whose centre projects outside every
+        step, at a sharp turn, gets none: the thesis's Figure 5.13 flaw.)  Returns the stress
+        released by each CM (0 for the others).
         """
         out = np.zeros(self.n_live)
         if len(sel) == 0:
@@ -354,18 +416,21 @@ class Modules:
         rel = self.center2d[c] - p0                       # in the released cell's facet frame
         t = np.einsum("md,md->m", rel, hv) / seg_len
         perp = np.abs(rel[:, 0] * hv[:, 1] - rel[:, 1] * hv[:, 0]) / s
-        band = (t >= 0) & (t <= 1) & (perp < dist)
+        band = (t >= -1e-9) & (t < 1.0 - 1e-9) & (perp < dist)       # each centre on one step
         mi, hv, key, perp = mi[band], hv[band], key[band], perp[band]
-        frac = r.release * (1.0 - perp / dist)
-        share = np.clip(frac[:, None] * across_share(np.arctan2(hv[:, 1], hv[:, 0])), 0.0, 1.0)
-        before = self.flat[key]
+        amount = (r.release * self._drive[sel][mi] * (1.0 - perp / dist))[:, None] * \
+            across_share(np.arctan2(hv[:, 1], hv[:, 0]))
         uk, inv = np.unique(key, return_inverse=True)
-        with np.errstate(divide="ignore"):
-            logkeep = np.log(np.maximum(1.0 - share, 0.0))
         tot = np.zeros((len(uk), 4))
-        np.add.at(tot, inv, logkeep)
-        self.flat[uk] = self.flat[uk] * np.exp(tot)
-        out[sel] = np.bincount(mi, weights=(before * share).sum(axis=1), minlength=len(sel))
+        np.add.at(tot, inv, amount)
+        before = self.flat[uk]
+        after = np.maximum(before - tot, 0.0)
+        self.flat[uk] = after
+        # what each CM took: its share of the cell's drop
+        drop = before - after
+        with np.errstate(invalid="ignore", divide="ignore"):
+            part = np.where(tot[inv] > 0, amount / tot[inv], 0.0) * drop[inv]
+        out[sel] = np.bincount(mi, weights=part.sum(axis=1), minlength=len(sel))
         return out
 
     def _unfold_points(self, face: np.ndarray, xy: np.ndarray, h: np.ndarray,

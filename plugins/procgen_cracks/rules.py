@@ -164,7 +164,7 @@ class CrackPropagate(RuleBase):
         FieldSpec("crack__layer", "{lines}", "line", "out", dtype="int64", doc="stack layer"),
         FieldSpec("crack__type", "{lines}", "line", "out", dtype="int64", doc="0 I, 1 T, 2 Y, 3 X"),
     )
-    default_iterations: ClassVar[int] = 10_000
+    default_iterations: ClassVar[int] = 1          # one series; run with until = "stable"
     cells: str = param("cells", doc="SurfaceCells domain with stress__spectrum")
     lines: str = param("cracks", doc="name of the Polylines domain of crack paths to create")
     resistance: float | None = param(None, gt=0.0, doc="mR: the largest stress the material holds")
@@ -184,7 +184,8 @@ class CrackPropagate(RuleBase):
     potential: float = param(0.5, gt=0.0, doc="p: share of the crossed stress added to K per cell")
     fork_epsilon: float = param(0.02, ge=0.0, doc="fork when the two strongest axes differ by < this x mR")
     release_distance: float = param(2.0, gt=0.0, le=20.0, doc="d: stress released out to d cells")
-    release: float = param(1.0, ge=0.0, le=1.0, doc="share of the across-path stress released on the path")
+    release: float = param(2.0, ge=0.0, le=100.0,
+                           doc="release intensity on the path, in units of the stress driving the CM")
     step_length: float = param(0.7, gt=0.0, lt=1.0, doc="CM step in cells (shorter than a cell)")
     lookahead: float = param(1.5, ge=0.0, le=5.0, doc="a CM reads the stress this many cells ahead")
     birth_spacing: int = param(3, ge=0, le=100, doc="births of one series at least this many cells apart")

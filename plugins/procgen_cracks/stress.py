@@ -80,18 +80,26 @@ def relax(spec: np.ndarray, rows: np.ndarray, cols: np.ndarray, share: float, lo
     if share <= 0 or loops <= 0 or len(rows) == 0:
         return out
     n = len(out)
+    order = np.argsort(rows, kind="stable")                # links grouped by giving cell
+    rows, cols = rows[order], cols[order]
+    starts = np.searchsorted(rows, np.arange(n))
+    has = np.bincount(rows, minlength=n) > 0
+    first = np.minimum(starts, len(rows) - 1)
+
+    def row_sum(x: np.ndarray) -> np.ndarray:
+        return np.where(has, np.add.reduceat(x, first), 0.0)
+
     for _ in range(loops):                                # eL sweeps (the thesis's loop)
         for k in range(out.shape[1]):                     # 4 axes, each vectorised over links
             v = out[:, k]
             diff = v[rows] - v[cols]
-            low = diff > 0
-            r, c, d = rows[low], cols[low], diff[low]
-            n_inf = np.bincount(r, minlength=n)
-            a = share / n_inf[r]                          # flow coefficient of each link
-            coef = np.bincount(c, weights=a, minlength=n) + np.where(n_inf > 0, share, 0.0)
+            low = (diff > 0).astype(float)
+            n_inf = row_sum(low)
+            a = share * low / np.maximum(n_inf, 1.0)[rows]          # flow coefficient per link
+            coef = np.bincount(cols, weights=a, minlength=n) + np.where(n_inf > 0, share, 0.0)
             lim = np.maximum(coef, 1.0)
-            flow = a * d / np.maximum(lim[r], lim[c])
-            out[:, k] = v - np.bincount(r, weights=flow, minlength=n) + np.bincount(c, weights=flow, minlength=n)
+            flow = a * diff / np.maximum(lim[rows], lim[cols])
+            out[:, k] = v - row_sum(flow) + np.bincount(cols, weights=flow, minlength=n)
     return out
 
 

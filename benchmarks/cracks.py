@@ -1,0 +1,83 @@
+"""Crack propagation speed: the plate-5.10 recipe (mud on a tetrahedron) at ~330,000 cells.
+
+The thesis (5.2.6, plate 5.10): ~330 k cells, 85 % unstable at the start, 99 % stable after
+20 minutes on an SGI Indigo2 (R10000, 195 MHz).  Target here: the crack part under 60 s.
+
+Prints, for the full size and for a baseline run of an eighth of the cells in the same process
+(fresh state, same recipe): wall and CPU seconds per step of the recipe (CPU time is the
+figure to trust on a shared, loaded machine) (cells, stack, stress + relaxation,
+propagation), CM steps, cracks, the unstable fraction at the end, the time per cell ratio
+(full / baseline: near 1 means the cost grows linearly with the cells) and the ratio against
+the thesis's 20 minutes; then the peak RSS of the process.
+
+    python benchmarks/cracks.py             # ~330,000 cells, plus the 1/8 baseline
+    python benchmarks/cracks.py --quick     # ~40,000 cells, plus the 1/8 baseline
+"""
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+
+from procgen.plugins import get_plugin_manager
+from procgen.recipes import load_recipe
+from procgen.runner import run
+
+THESIS_SECONDS = 20 * 60
+
+
+def run_plate(host, cells: int) -> dict:
+    recipe = load_recipe("meshes/plate-5-10", host, [f"steps.cells.params.target_cells={cells}"])
+    per_rule: dict[str, float] = {}
+    cpu: dict[str, float] = {}
+    last = [time.process_time()]
+
+    def on_step(state, rec) -> None:          # CPU seconds since the last record (incl. setup)
+        now = time.process_time()
+        cpu[rec.rule] = cpu.get(rec.rule, 0.0) + now - last[0]
+        last[0] = now
+
+    t0 = time.perf_counter()
+    res = run(recipe, host, seed=1, progress=False, on_step=on_step)
+    total = time.perf_counter() - t0
+    for rec in res.state.records:
+        per_rule[rec.rule] = per_rule.get(rec.rule, 0.0) + rec.seconds
+    rep = res.state.reports
+    return {"cells": rep["cells.n_cells"], "total": total, "per_rule": per_rule, "cpu": cpu,
+            "steps": rep["cracks.steps"], "cracks": rep["cracks.cracks"], "modules": rep["cracks.modules"],
+            "unstable_start": rep["cracks.unstable_start_fraction"],
+            "unstable": rep["cracks.unstable_fraction"]}
+
+
+def show(label: str, r: dict) -> None:
+    print(f"{label}: {r['cells']:,} cells, {r['total']:.1f} s in all")
+    for rule, sec in r["per_rule"].items():
+        print(f"  {rule:18s} {sec:7.2f} s wall  {r['cpu'].get(rule, 0.0):7.2f} s CPU")
+    print(f"  {r['cracks']:,} cracks, {r['modules']:,} crack modules, {r['steps']:,} CM steps; "
+          f"unstable {100 * r['unstable_start']:.1f} % -> {100 * r['unstable']:.2f} %")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="~40,000 cells instead of ~330,000")
+    ap.add_argument("--cells", type=int, default=0, help="target cell count (overrides --quick)")
+    args = ap.parse_args()
+    cells = args.cells or (40_000 if args.quick else 330_000)
+    host = get_plugin_manager()
+    base = run_plate(host, cells // 8)
+    show("baseline (1/8 of the cells)", base)
+    full = run_plate(host, cells)
+    show("plate 5.10", full)
+    for kind in ("per_rule", "cpu"):
+        crack = full[kind].get("cracks.propagate", 0.0) + full[kind].get("cracks.stress", 0.0)
+        crack_b = base[kind].get("cracks.propagate", 0.0) + base[kind].get("cracks.stress", 0.0)
+        ratio = (crack / full["cells"]) / max(crack_b / base["cells"], 1e-12)
+        what = "wall" if kind == "per_rule" else "CPU"
+        print(f"stress + propagation ({what}): {crack:.1f} s (target < 60 s); time per cell vs "
+              f"baseline x{ratio:.2f}; thesis 20 min / ours = x{THESIS_SECONDS / max(crack, 1e-9):.0f}")
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"peak memory {peak:.0f} MB")
+
+
+if __name__ == "__main__":
+    main()

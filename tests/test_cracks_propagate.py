@@ -1,0 +1,269 @@
+"""Crack modules and stress release (3DSCA thesis 5.2.4.b-c, plates 5.5 and 5.10; digest 16.6)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from procgen.ca.subcell import wrap_angle
+from procgen.recipes import check_recipe, load_recipe
+from procgen.runner import run
+
+TETRA = ({"rule": "mesh.primitive", "params": {"shape": "tetrahedron"}},)
+
+
+def _run(host, steps, seed=1):
+    recipe = check_recipe({"steps": list(steps)}, host, "<test>")
+    res = run(recipe, host, seed=seed, progress=False)
+    return res.state, recipe
+
+
+def _uniform(cells: int, percent=(10, 0, 90, 0)):
+    return TETRA + (
+        {"rule": "surface.cells", "params": {"target_cells": cells}},
+        {"rule": "layers.stack", "params": {"layers": [
+            {"preset": "stone", "thickness": 1.0}, {"preset": "glaze", "thickness": 0.5}]}},
+        {"rule": "cracks.stress", "params": {"mode": "uniform", "percent": list(percent)}},
+    )
+
+
+def _face_points(state, face: int, where: np.ndarray) -> np.ndarray:
+    sc = state.domains["cells"]
+    return sc.layout.frames.corners2d[face].mean(axis=0) + where * sc.size
+
+
+def _seeds(state, face: int, offsets) -> list[list[float]]:
+    sc = state.domains["cells"]
+    p2 = _face_points(state, face, np.asarray(offsets, float))
+    return sc.layout.frames.to_3d(np.full(len(p2), face), p2).tolist()
+
+
+def _lines_2d(state, face: int):
+    """The crack polylines of one facet, in that facet's 2-D frame, with their line index."""
+    sc, pl = state.domains["cells"], state.domains["cracks"]
+    out = []
+    for i in range(pl.n_lines):
+        seg = pl.offsets[i]
+        if pl["crack__face"][seg] == face:
+            p = pl.line(i)
+            out.append((i, sc.layout.frames.to_2d(np.full(len(p), face), p)))
+    return out
+
+
+def _near_edge(state, face: int, xy: np.ndarray, cells: float = 2.0) -> bool:
+    from procgen_surface.geometry import edge_half_planes
+    sc = state.domains["cells"]
+    nrm, off = edge_half_planes(sc.layout.frames.corners2d[face:face + 1])
+    return bool((nrm[0] @ xy - off[0]).min() < cells * sc.size)
+
+
+@pytest.fixture(scope="module")
+def plate_5_10(host):
+    """The plate-5.10 recipe, small: ~5,000 cells (the gallery runs 60,000)."""
+    recipe = load_recipe("meshes/plate-5-10", host, ["steps.cells.params.target_cells=5000"])
+    res = run(recipe, host, seed=1, progress=False)
+    rule = next(s.rule for s in recipe.steps if s.rule.name == "cracks.propagate")
+    return res.state, rule
+
+
+def test_plate_5_10_ends_at_most_one_percent_unstable(plate_5_10):
+    state, rule = plate_5_10
+    assert state.reports["cracks.unstable_start_fraction"] == pytest.approx(0.85, abs=0.01)
+    assert state.reports["cracks.unstable_fraction"] <= 0.01
+    assert rule.unstable_fraction() == state.reports["cracks.unstable_fraction"]
+    assert rule._mods.n_live == 0                                  # every CM has ended
+    # the Pot-Crack list left over is sorted and every member is unstable
+    pot = rule.pot_crack()
+    imax = rule._imax().ravel()
+    assert np.all(np.diff(imax[pot]) <= 0) and np.all(imax[pot] > rule.resistance_value)
+
+
+def test_steps_are_shorter_than_a_cell_and_turns_bounded_by_inertia(plate_5_10):
+    state, rule = plate_5_10
+    assert 0 < state.reports["cracks.max_step_cells"] < 1.0
+    assert state.reports["cracks.max_heading_ratio"] <= 1.0 - rule.inertia / 100.0 + 1e-9
+
+
+def test_widths_stay_in_range_and_mark_the_cracked_cells(plate_5_10):
+    state, rule = plate_5_10
+    sc, pl = state.domains["cells"], state.domains["cracks"]
+    w = np.asarray(sc["crack__width"])
+    ids = np.asarray(sc["crack__id"])
+    assert np.array_equal(w > 0, ids >= 0)
+    assert w.max() <= rule.max_width and (w >= 0).all()
+    pw = np.asarray(pl["crack__width"])
+    assert (pw > 0).all() and (pw <= rule.max_width).all()
+    # the width grows along every line (released stress only accumulates)
+    for i in range(pl.n_lines):
+        seg = pw[pl.offsets[i]:pl.offsets[i + 1]]
+        assert np.all(np.diff(seg) >= -1e-15)
+
+
+def test_every_crack_is_connected_in_the_cell_graph(plate_5_10):
+    """Each crack's cells form one set, 8-connected inside a facet; across a facet edge, where
+    the two grids do not line up, a step may join cells two cross-edge hops apart."""
+    state, _ = plate_5_10
+    sc = state.domains["cells"]
+    ids = np.asarray(sc["crack__id"])[:, -1]
+    g = sc.cell_graph("moore")
+    n = sc.n_cells
+    a = sp.csr_matrix((np.ones(len(g.rows)), (g.rows, g.indices)), shape=(n, n))
+    cross = sp.csr_matrix((g.cross.astype(float), (g.rows, g.indices)), shape=(n, n))
+    links = (a + cross @ a + a @ cross).tocoo()
+    same = (ids[links.row] >= 0) & (ids[links.row] == ids[links.col])
+    adj = sp.csr_matrix((np.ones(int(same.sum())), (links.row[same], links.col[same])), shape=(n, n))
+    _, comp = connected_components(adj, directed=False)
+    cracked = np.nonzero(ids >= 0)[0]
+    pairs = np.unique(np.column_stack([ids[cracked], comp[cracked]]), axis=0)
+    assert len(pairs) == len(np.unique(ids[cracked])) > 10      # one component per crack
+    one_face = [k for k in np.unique(ids[cracked]) if len(np.unique(sc.face[ids == k])) == 1]
+    assert len(one_face) > 10
+    inner = sp.csr_matrix((np.ones(len(g.rows)), (g.rows, g.indices)), shape=(n, n)).tocoo()
+    same = (ids[inner.row] >= 0) & (ids[inner.row] == ids[inner.col])
+    adj = sp.csr_matrix((np.ones(int(same.sum())), (inner.row[same], inner.col[same])), shape=(n, n))
+    _, comp = connected_components(adj, directed=False)
+    for k in one_face:                              # strictly 8-connected on one facet
+        assert len(np.unique(comp[ids == k])) == 1
+
+
+def test_polylines_follow_the_contract(plate_5_10):
+    """Every segment lies within one facet, on it; lines carry layer and type."""
+    state, _ = plate_5_10
+    sc, pl = state.domains["cells"], state.domains["cracks"]
+    face = np.asarray(pl["crack__face"])
+    line_of = np.repeat(np.arange(pl.n_lines), np.diff(pl.offsets))
+    assert all(len(set(face[line_of == i])) == 1 for i in range(0, pl.n_lines, 7))
+    p2 = sc.layout.frames.to_2d(face, pl.points)
+    back = sc.layout.frames.to_3d(face, p2)
+    assert np.abs(back - pl.points).max() < 1e-9                 # on the facet's plane
+    assert set(np.unique(pl["crack__layer"])) == {1}
+    assert set(np.unique(pl["crack__type"])) == {0}              # plate 5.10 seeds I only
+    assert state.reports["cracks.collisions"] > 0                # junctions formed
+
+
+def test_runs_are_byte_identical(host, plate_5_10):
+    state, _ = plate_5_10
+    recipe = load_recipe("meshes/plate-5-10", host, ["steps.cells.params.target_cells=5000"])
+    again = run(recipe, host, seed=1, progress=False).state
+    for dom, field in (("cells", "crack__width"), ("cells", "stress__spectrum"), ("cracks", "crack__width")):
+        assert np.asarray(state.domains[dom][field]).tobytes() == np.asarray(again.domains[dom][field]).tobytes()
+    assert state.domains["cracks"].points.tobytes() == again.domains["cracks"].points.tobytes()
+
+
+def test_release_is_linear_in_distance_and_never_negative(host):
+    """One I crack, one step per head, on a uniform field: the vertical axis drops by
+    release x S x (1 - x/d) at distance x from the (horizontal) path, 0 beyond d."""
+    base = _uniform(20000)
+    state, _ = _run(host, base)
+    before = np.asarray(state.domains["cells"]["stress__spectrum"])[:, 1].copy()
+    seeds = _seeds(state, 0, [[0.0, 0.0]])
+    d, rel = 4.0, 0.5
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 0.05, "seeds": seeds, "seed_types": ["I"], "release_distance": d,
+        "release": rel, "max_module_steps": 1, "lookahead": 0.0}, "until": "stable"},))
+    sc = state.domains["cells"]
+    after = np.asarray(sc["stress__spectrum"])[:, 1]
+    assert (after >= 0).all()
+    drop = before[:, 2] - after[:, 2]
+    assert np.allclose(before[:, 0], after[:, 0])                 # along the path: untouched
+    on0 = np.asarray(sc.face) == 0
+    p0 = _lines_2d(state, 0)[0][1][0]                       # the birth cell's centre
+    rel_xy = (np.asarray(sc.center2d) - p0) / sc.size
+    # the birth column: its centres project onto both heads' first steps (both release there)
+    inside = on0 & (np.abs(rel_xy[:, 0]) < 0.05) & (np.abs(rel_xy[:, 1]) < d + 2)
+    x = np.abs(rel_xy[inside, 1])
+    expect = np.where(x < d, 2 * rel * 0.9 * (1 - x / d), 0.0)
+    assert inside.sum() >= 9 and (expect > 0).sum() >= 7
+    np.testing.assert_allclose(drop[inside], expect, atol=1e-9)
+
+
+def test_90_10_field_gives_horizontal_cracks(host):
+    base = _uniform(20000)
+    state, _ = _run(host, base)
+    seeds = _seeds(state, 0, [[-15.0, 0.0]])
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 0.5, "seeds": seeds, "max_module_steps": 30}, "until": "stable"},))
+    lines = _lines_2d(state, 0)
+    assert state.domains["cracks"]["crack__type"][0] == 0          # Table 5.3: M0S0 -> I
+    assert len(lines) == 2
+    for _, p in lines:
+        d = p[-1] - p[0]
+        assert abs(np.degrees(np.arctan2(d[1], d[0])) % 180 - 90) > 89    # horizontal
+
+
+def test_two_parallel_cracks_meet_at_about_a_right_angle(host):
+    """Plate 5.5: two parallel I cracks on a 90/10 field; the one drawn into the other meets
+    it at 90 +- 20 degrees."""
+    base = _uniform(40000)
+    state, _ = _run(host, base)
+    seeds = _seeds(state, 0, [[-20.0, 2.0], [20.0, -2.0]])
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 0.05, "seeds": seeds, "seed_types": ["I", "I"], "release_distance": 8.0,
+        "max_module_steps": 200}, "until": "stable"},))
+    lines = _lines_2d(state, 0)
+    segs = [(p[k], p[k + 1]) for _, p in lines for k in range(len(p) - 1)]
+    angles = []
+    for i, p in lines:
+        end, last = p[-1], p[-1] - p[-2]
+        if np.linalg.norm(last) == 0:
+            continue
+        # the nearest segment of another line, within a cell of the end
+        best, ang = np.inf, None
+        for a, b in segs:
+            if np.allclose(a, p[-2]) or np.allclose(b, end) or np.allclose(a, end):
+                continue
+            ab = b - a
+            t = np.clip(np.dot(end - a, ab) / max(np.dot(ab, ab), 1e-300), 0, 1)
+            dist = np.linalg.norm(end - (a + t * ab))
+            if dist < best and np.linalg.norm(ab) > 0:
+                best = dist
+                ang = abs(np.degrees(wrap_angle(np.arctan2(last[1], last[0]) - np.arctan2(ab[1], ab[0]))))
+        if best < state.domains["cells"].size * 1.5:
+            angles.append(min(ang, 180 - ang))
+    assert state.reports["cracks.collisions"] >= 1
+    assert angles and max(angles) >= 70.0
+    assert all(a > 70.0 for a in angles if a > 45.0)
+
+
+def test_fork_children_leave_at_60_degrees(host):
+    """Two equal axes (a tie within epsilon): the CM forks into two at +-pi/3."""
+    base = _uniform(6000, percent=(90, 0, 90, 0))
+    state, _ = _run(host, base)
+    seeds = _seeds(state, 0, [[0.0, 0.0]])
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 0.5, "seeds": seeds, "seed_types": ["I"], "inertia": 100.0,
+        "max_module_steps": 6}, "until": "stable"},))
+    assert state.reports["cracks.forks"] >= 2
+    lines = _lines_2d(state, 0)
+    birth = tuple(np.round(lines[0][1][0], 12))
+    ends: dict[tuple, list[np.ndarray]] = {}
+    for _, p in lines:
+        ends.setdefault(tuple(np.round(p[-1], 12)), []).append(p[-1] - p[-2])
+    found = 0
+    for _, p in lines:
+        parents = ends.get(tuple(np.round(p[0], 12)))
+        if parents is None or tuple(np.round(p[0], 12)) == birth or _near_edge(state, 0, p[0]):
+            continue                                # not a fork (birth, facet crossing)
+        child = p[1] - p[0]
+        turns = [abs(np.degrees(wrap_angle(np.arctan2(child[1], child[0]) - np.arctan2(q[1], q[0]))))
+                 for q in parents]                  # two heads may end on one point
+        assert min(abs(t - 60.0) for t in turns) < 1e-6
+        found += 1
+    assert found >= 4
+
+
+@pytest.mark.parametrize("kind,n_heads", [("T", 3), ("Y", 3), ("X", 4)])
+def test_seeded_types_start_their_heads(host, kind, n_heads):
+    base = _uniform(20000)
+    state, _ = _run(host, base)
+    seeds = _seeds(state, 0, [[0.0, 0.0]])
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 0.5, "seeds": seeds, "seed_types": [kind], "inertia": 100.0,
+        "max_module_steps": 3}, "until": "stable"},))
+    lines = _lines_2d(state, 0)
+    assert len(lines) == n_heads
+    ang = np.sort([np.arctan2(*(p[1] - p[0])[::-1]) % (2 * np.pi) for _, p in lines])
+    gaps = np.diff(np.concatenate([ang, [ang[0] + 2 * np.pi]]))
+    want = {"T": [90, 90, 180], "Y": [120, 120, 120], "X": [90, 90, 90, 90]}[kind]
+    np.testing.assert_allclose(np.sort(np.degrees(gaps)), want, atol=1e-6)
