@@ -82,7 +82,12 @@ def profile_density(x: np.ndarray, ct: np.ndarray, cs: float, profile: str,
     """f(|x|) per unit width (1/length) at distance ``x`` from the path of a crack ``ct`` wide."""
     x = np.abs(np.asarray(x, dtype=float))
     ct = np.broadcast_to(np.asarray(ct, dtype=float), x.shape)
-    k, d, constant = profile_constants(ct, cs, profile, saturation)
+    return _density(x, ct, *profile_constants(ct, cs, profile, saturation), cs, profile)
+
+
+def _density(x: np.ndarray, ct: np.ndarray, k: np.ndarray, d: np.ndarray, constant: np.ndarray,
+             cs: float, profile: str) -> np.ndarray:
+    """f(x >= 0) from precomputed constants (broadcasting against x)."""
     h = 0.5 * ct
     if profile.endswith("linear"):
         shape = h - x
@@ -91,9 +96,8 @@ def profile_density(x: np.ndarray, ct: np.ndarray, cs: float, profile: str,
     elif profile.endswith("parabolic_b"):
         shape = (x - h) ** 2
     else:
-        shape = np.ones_like(x)
-    f = np.where(constant, 1.0 / cs, k * shape)
-    f = np.where(~constant & (x <= d), 1.0 / cs, f)          # U types: saturated centre
+        shape = 1.0
+    f = np.where(constant | (x <= d), 1.0 / cs, k * shape)      # U types: saturated centre
     return np.where(x <= h, f, 0.0)
 
 
@@ -117,7 +121,7 @@ def band_coverage(dist: np.ndarray, c: np.ndarray, s: np.ndarray, ct: np.ndarray
     and |sin| of the crack direction in the micro-grid's axes; ``ct``: crack width.
     """
     dist, c, s, ct = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (dist, c, s, ct)))
-    _, d, constant = profile_constants(ct, cs, profile, saturation)
+    kk, d, constant = profile_constants(ct, cs, profile, saturation)
     h = 0.5 * cs * (c + s)
     g = 0.5 * cs * np.abs(c - s)
     half = 0.5 * ct
@@ -128,7 +132,7 @@ def band_coverage(dist: np.ndarray, c: np.ndarray, s: np.ndarray, ct: np.ndarray
     mid, rad = 0.5 * (lo + hi), 0.5 * (hi - lo)
     x = mid[..., None] + rad[..., None] * _GL_X                     # (..., 8, 3)
     ex = (..., None, None)
-    f = profile_density(x, ct[ex], cs, profile, saturation)
+    f = _density(np.abs(x), ct[ex], kk[ex], d[ex], constant[ex], cs, profile)
     chord = _chord(x - dist[ex], cs, c[ex], s[ex])
     total = np.sum(f * chord * _GL_W * rad[..., None], axis=(-1, -2))
     return np.clip(total / cs, 0.0, 1.0)
@@ -300,6 +304,8 @@ def _accumulate(out: np.ndarray, cells, seg: Segments, reach: np.ndarray, k: int
     t = np.clip(np.sum((p - a) * ab, axis=1) / ln2, 0.0, 1.0)
     dist = np.linalg.norm(p - (a + t[:, None] * ab), axis=1)
     width = seg.wa[idx] + t * (seg.wb[idx] - seg.wa[idx])
+    near = dist < 0.5 * width + cs * np.sqrt(0.5)          # the band can reach the micro-cell
+    idx, mx, my, cell, ab, ln2, dist, width = (v[near] for v in (idx, mx, my, cell, ab, ln2, dist, width))
     ln = np.sqrt(ln2)
     cov = band_coverage(dist, np.abs(ab[:, 0]) / ln, np.abs(ab[:, 1]) / ln, width, cs,
                         profile, saturation)
