@@ -19,7 +19,11 @@ from procgen.exchange.svg import finish, fmt_number, new_drawing, path_data
 from procgen_layers.light import layer_weights, through_layers
 from procgen_layers.stack import load_table
 
+from .lift import lift_shading
+
 THICKNESS = "layers__thickness"
+#: default direction towards the light for the baked lift shading (above, front left)
+LIGHT = (-0.4, -0.5, 0.77)
 
 
 def _surface(domain: Any, fmt: str):
@@ -32,13 +36,17 @@ def _surface(domain: Any, fmt: str):
     return domain
 
 
-def texel_colors(sc: Any, *, layer: int = -1, shadow: float = 0.7,
-                 highlight: float = 0.6) -> np.ndarray:
+def texel_colors(sc: Any, *, layer: int = -1, shadow: float = 0.7, highlight: float = 0.6,
+                 light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0,
+                 lift_rim: float = 0.5) -> np.ndarray:
     """(n, k, k, 3) albedo of every micro-cell: stack colour, cracks opening on the layers below.
 
     ``shadow`` / ``highlight``: how much a full crack-mirror band darkens / lightens the layer
-    under the cracked one (before the glaze above it filters the change).
+    under the cracked one (before the glaze above it filters the change).  Cells lifted by partial
+    peeling (``peel__lift``) are shaded by :func:`procgen_cracks.lift.lift_shading` (``light``
+    towards the light, ``lift_relief`` slope exaggeration, ``lift_rim`` darkest rim).
     """
+    lit = lift_shading(sc, light=light, relief=lift_relief, rim=lift_rim)
     table = load_table(sc, "crack export")
     t = np.asarray(sc[THICKNESS], float)
     n_layers = t.shape[1]
@@ -67,41 +75,47 @@ def texel_colors(sc: Any, *, layer: int = -1, shadow: float = 0.7,
         rgb += w_low[:, None, None, None] * delta
     c = cov[..., None]
     rgb = (1.0 - c) * rgb + c * under[:, None, None, :]
+    if lit is not None:
+        rgb *= lit[:, None, None, None]
     return np.clip(rgb, 0.0, 1.0)
 
 
-def _build(sc: Any, *, layer: int, shadow: float, highlight: float, cells_per_segment: float,
-           exaggerate: float, max_triangles: int):
+def _build(sc: Any, *, cells_per_segment: float, exaggerate: float, max_triangles: int,
+           **texels: Any):
     from procgen_surface.exporters import build_export
 
-    rgb = texel_colors(sc, layer=layer, shadow=shadow, highlight=highlight)
+    rgb = texel_colors(sc, **texels)
     return build_export(sc, color_by="layers", cells_per_segment=cells_per_segment,
                         exaggerate=exaggerate, max_triangles=max_triangles, texel_rgb=rgb)
 
 
 def crack_obj(domain: Any, *, stem: str, provenance: dict | None = None, layer: int = -1,
               shadow: float = 0.7, highlight: float = 0.6, cells_per_segment: float = 4.0,
-              exaggerate: float = 0.02, max_triangles: int = 1_500_000) -> dict[str, bytes]:
+              exaggerate: float = 0.02, max_triangles: int = 1_500_000,
+              light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5) -> dict[str, bytes]:
     """OBJ + MTL + PNG atlas (one texel per micro-cell): the lower layer shows through cracks."""
     from procgen_surface.export_mesh import obj_files
 
     sc = _surface(domain, "crack_obj")
     mesh, atlas = _build(sc, layer=layer, shadow=shadow, highlight=highlight,
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
-                         max_triangles=max_triangles)
+                         max_triangles=max_triangles, light=light, lift_relief=lift_relief,
+                         lift_rim=lift_rim)
     return obj_files(mesh, atlas, name=stem.rsplit("/", 1)[-1], provenance=provenance)
 
 
 def crack_glb(domain: Any, *, stem: str = "", provenance: dict | None = None, layer: int = -1,
               shadow: float = 0.7, highlight: float = 0.6, cells_per_segment: float = 4.0,
-              exaggerate: float = 0.02, max_triangles: int = 1_500_000) -> bytes:
+              exaggerate: float = 0.02, max_triangles: int = 1_500_000,
+              light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5) -> bytes:
     """Binary glTF of the same textured mesh."""
     from procgen_surface.export_mesh import glb_bytes
 
     sc = _surface(domain, "crack_glb")
     mesh, atlas = _build(sc, layer=layer, shadow=shadow, highlight=highlight,
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
-                         max_triangles=max_triangles)
+                         max_triangles=max_triangles, light=light, lift_relief=lift_relief,
+                         lift_rim=lift_rim)
     return glb_bytes(mesh, atlas, provenance)
 
 
@@ -109,7 +123,8 @@ def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, la
               shadow: float = 0.7, highlight: float = 0.6, width: int = 640, height: int = 480,
               azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True,
               cells_per_segment: float = 4.0, exaggerate: float = 0.02,
-              max_triangles: int = 400_000) -> bytes:
+              max_triangles: int = 400_000, light: tuple[float, ...] = LIGHT,
+              lift_relief: float = 1.0, lift_rim: float = 0.5) -> bytes:
     """Fixed-camera preview of the textured mesh, the texture sampled per pixel (micro-cells)."""
     from procgen.exchange.glb import mesh_for_export
     from procgen.exchange.preview import render_mesh_png
@@ -120,7 +135,8 @@ def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, la
         raise InputError(f"crack_png: up must be x, y or z, got {up!r}")
     mesh, atlas = _build(sc, layer=layer, shadow=shadow, highlight=highlight,
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
-                         max_triangles=max_triangles)
+                         max_triangles=max_triangles, light=light, lift_relief=lift_relief,
+                         lift_rim=lift_rim)
     tm = mesh_for_export(as_trimesh(mesh, atlas), uv_field="surface__uv", texture_field="surface__texture")
     return render_mesh_png(tm, (width, height), azimuth=azimuth, elevation=elevation, up=up, lit=lit)
 
