@@ -18,15 +18,19 @@ times the attack/defence kernel alone and the whole ``layers.corrode`` rule (whi
 publishes its fields every step); with --baseline the previous version of this benchmark runs
 after it under that interpreter, so both print the same figures in one run.
 
-``--paths`` runs ca.life (25/357, 100 steps) and ca.voronoi (to full coverage) on the same
-cylinder cells, and the patina kernel (``--path-steps`` steps on the cup), once per path, each in its own process (own peak RSS), one after the other: the
-numpy step, the compiled step (numba import and kernel load/compile timed apart, on a warm-up
-graph) and the machine's limit, a trivial compiled kernel summing a byte per CSR neighbour
-entry (the gather every cell step needs, nothing else): over every cell in memory order for
-life and patina, over the same frontiers in the same order for Voronoi.  Life and patina are
-timed per cell-step,
-Voronoi per frontier entry visited (its work is the frontier's, not the domain's).  CPU times
-of each child, fastest of two alternating rounds; both paths' results are hashed.
+``--paths`` runs the ``ca.life`` rule (25/357, table reading, 100 steps) and ca.voronoi (to
+full coverage) on the same cylinder cells, and the patina kernel (``--path-steps`` steps on the
+cup), once per path, each in its own process (own peak RSS), one after the other: the numpy step,
+the compiled step (numba import and kernel load/compile timed apart, on a warm-up graph) and the
+machine's limit, a trivial compiled kernel summing a uint8 per neighbour through int32 ids (the
+gather every cell step needs, nothing else): over every cell in memory order for life and
+patina (as fixed-length rows when every cell has the same degree, the fastest form of that
+gather; the CSR loop is reported beside it), over the same frontiers in the same order for
+Voronoi.  Life and patina are timed per cell-step, Voronoi per frontier entry visited (its work
+is the frontier's, not the domain's).  Single-threaded rows (numba at one thread) give CPU
+time; the ``2 threads`` rows run the same workload with numba's threads on both cores and give
+wall time on every path (numpy included), which on a loaded machine is the noisier figure.
+Fastest of two alternating rounds; both paths' results are hashed.
 """
 from __future__ import annotations
 
@@ -99,10 +103,13 @@ def main() -> None:
         return path_child(args, scale)
     if args.paths:
         n = int(250_000 * scale)
-        _paths.compare([("life", f"ca.life 25/357 on ~{n:,} cylinder cells, 100 steps (per cell-step)"),
+        n = int(250_000 * scale)
+        m = int(220_000 * scale)
+        _paths.compare([("life", f"ca.life rule 25/357 on ~{n:,} cylinder cells, 100 steps (per cell-step)"),
+                        ("life-2t", f"  the same, 2 threads, wall time"),
                         ("voronoi", f"ca.voronoi 24 seeds on ~{n:,} cells to full (per frontier entry)"),
-                        ("corrode", f"layers.corrode kernel, ~{int(220_000 * scale):,} cup cells, "
-                                    f"{args.path_steps} steps (per cell-step)")],
+                        ("corrode", f"layers.corrode kernel, ~{m:,} cup cells, {args.path_steps} steps (per cell-step)"),
+                        ("corrode-2t", f"  the same, 2 threads, wall time")],
                        (["--quick"] if args.quick else []) + ["--path-steps", str(args.path_steps)])
         return
 
@@ -213,46 +220,92 @@ def _cylinder_cells(target: int) -> SurfaceCells:
     return SurfaceCells.from_mesh(np.asarray(cyl.vertices), np.asarray(cyl.faces), target_cells=target)
 
 
+def _limit_kernels():
+    """The trivial gathers of the limit (compiled on first use): CSR rows, fixed-length rows
+    (in parallel over the cells), and CSR rows of a list of cells (the Voronoi frontiers)."""
+    from numba import njit, prange
+
+    @njit(cache=True, nogil=True)
+    def csr(indptr, indices, x, out):
+        for c in range(indptr.size - 1):
+            v = 0
+            for e in range(indptr[c], indptr[c + 1]):
+                v += x[indices[e]]
+            out[c] = v
+
+    @njit(cache=True, nogil=True, parallel=True)
+    def rows(table, x, out):
+        for c in prange(out.size):
+            v = 0
+            for s in range(table.shape[1]):
+                v += x[table[c, s]]
+            out[c] = v
+
+    @njit(cache=True, nogil=True)
+    def some(indptr, indices, cells, x, out):
+        for c in cells:
+            v = 0
+            for e in range(indptr[c], indptr[c + 1]):
+                v += x[indices[e]]
+            out[c] = v
+
+    return csr, rows, some
+
+
 def path_child(args, scale: float) -> None:
-    """One path of ``--paths`` in this process: CPU time per unit of work, as JSON."""
-    if args.part == "corrode":
+    """One path of ``--paths`` in this process: time per unit of work, as JSON."""
+    part, threads = args.part.removesuffix("-2t"), 2 if args.part.endswith("-2t") else 1
+    if args.path != "numpy":                   # (the numpy child never imports numba: its RSS)
+        import numba
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    if part == "corrode":
         cv, cf = cup(sections=20, rings=5)
-        g = SurfaceCells.from_mesh(cv, cf, target_cells=int(220_000 * scale)).graph
+        sc = SurfaceCells.from_mesh(cv, cf, target_cells=int(220_000 * scale))
     else:
-        g = _cylinder_cells(int(250_000 * scale)).graph
-    clock = time.process_time
+        sc = _cylinder_cells(int(250_000 * scale))
+    g = sc.graph
+    clock = time.perf_counter if threads > 1 else time.process_time
     if args.path == "limit":
-        from numba import njit
-
-        @njit(cache=True, nogil=True)
-        def gather(indptr, indices, cells, x, out):
-            for c in cells:
-                v = 0
-                for e in range(indptr[c], indptr[c + 1]):
-                    v += x[indices[e]]
-                out[c] = v
-
+        csr, rows, some = _limit_kernels()
         x = (np.random.default_rng(3).random(g.n_cells) < 0.5).astype(np.uint8)
         out = np.empty(g.n_cells, np.uint8)
-        if args.part in ("life", "corrode"):   # every cell, in memory order
-            sets = [np.arange(g.n_cells)] * 20
-        else:                              # the frontiers the growth visits, in its order
+        ind = g.indices.astype(np.int32)
+        fig = {"entries_per_cell": round(g.indices.size / g.n_cells, 2),
+               "bytes_per_cell": round(ind.nbytes / g.n_cells + 2, 1)}
+        if part == "voronoi":              # the frontiers the growth visits, in its order
             grow = VoronoiGrowth(g, place_seeds(g.n_cells, 24, np.random.default_rng(1)), accelerate=True)
             rng, sets = np.random.default_rng(7), [grow.frontier]
             while grow.step(rng):
                 sets.append(grow.frontier)
-        gather(g.indptr, g.indices, sets[0], x, out)
-        t0 = clock()
-        for cells in sets:
-            gather(g.indptr, g.indices, cells, x, out)
-        t = clock() - t0
-        entries = sum(int(np.sum(g.degree[c])) for c in sets)
-        _paths.report(seconds=t / entries if args.part == "voronoi" else t / (len(sets) * g.n_cells),
-                      entries_per_cell=round(g.indices.size / g.n_cells, 2),
-                      bytes_per_cell=round((g.indices.nbytes + g.indptr.nbytes) / g.n_cells + 2))
+            some(g.indptr, ind, sets[0], x, out)
+            t0 = clock()
+            for cells in sets:
+                some(g.indptr, ind, cells, x, out)
+            t = clock() - t0
+            _paths.report(seconds=t / sum(int(np.sum(g.degree[c])) for c in sets), **fig)
+            return
+        reps = 30
+        times = {}
+        if threads == 1:
+            csr(g.indptr, ind, x, out)
+            t0 = clock()
+            for _ in range(reps):
+                csr(g.indptr, ind, x, out)
+            times["csr_loop"] = (clock() - t0) / (reps * g.n_cells)
+        if np.all(g.degree == g.degree[0]):     # every row the same length: the fixed-row gather
+            table = ind.reshape(g.n_cells, -1)
+            rows(table, x, out)
+            t0 = clock()
+            for _ in range(reps):
+                rows(table, x, out)
+            times["fixed_rows"] = (clock() - t0) / (reps * g.n_cells)
+        fig.update({k + "_ns": round(v * 1e9, 2) for k, v in times.items()})
+        _paths.report(seconds=min(times.values()), **fig)
         return
+    import os
+    os.environ["PROCGEN_ACCELERATE"] = "1" if args.path == "compiled" else "0"
     accelerate = args.path == "compiled"
-    fig = {}
+    fig = {"threads": numba.get_num_threads() if accelerate else 1}   # numba's, for the kernels
     if accelerate:
         small = grid_graph(40, 40)
         t0 = time.perf_counter()
@@ -265,7 +318,7 @@ def path_child(args, scale: float) -> None:
         cz.corrosion_step(small, st, Corrode(), np.random.default_rng(0),
                           weights=cz.direction_weights(cz.gaussian_matrix(1.0)), accelerate=True)
         fig["warmup_s"] = round(time.perf_counter() - t0, 2)
-    if args.part == "corrode":
+    if part == "corrode":
         n = g.n_cells
         rng = np.random.default_rng(2)
         st = cz.CorrosionState(status=np.zeros(n, np.int8), consumable=np.ones((n, 1)),
@@ -282,16 +335,21 @@ def path_child(args, scale: float) -> None:
         fig.update(hash=digest.hexdigest()[:16], coverage=round(float(np.mean(st.status != cz.NORMAL)), 3))
         _paths.report(seconds=t / (args.path_steps * n), **fig)
         return
-    if args.part == "life":
-        lut = parse_rule("25/357", "table").lut()
-        alive = np.random.default_rng(3).random(g.n_cells) < 0.05
-        out = np.empty(g.n_cells, bool)
+    if part == "life":                         # the whole rule step (fields published each step)
+        from procgen.ca.lifelike import LifeLike
+        state = State(seed=3)
+        state.add_domain("cells", sc)
+        rule = LifeLike.from_params({"rule": "25/357", "semantics": "table", "density": 0.05})
+        state.rule_name, state.iteration = rule.name, 0
+        rule.setup(state)
         t0 = clock()
-        for _ in range(100):
-            nxt = life_step(g, alive, lut, out=out, accelerate=accelerate)
-            alive, out = nxt, alive            # double buffer on the compiled path
+        for k in range(100):
+            state.iteration = k
+            rule.step(state)
         t = clock() - t0
-        fig.update(hash=hashlib.sha256(alive.tobytes()).hexdigest()[:16], live=round(float(alive.mean()), 3))
+        alive = np.asarray(sc["ca__alive"])
+        fig.update(hash=hashlib.sha256(alive.tobytes() + np.asarray(sc["ca__age"]).tobytes()).hexdigest()[:16],
+                   live=round(float(alive.mean()), 3))
         _paths.report(seconds=t / (100 * g.n_cells), **fig)
         return
     g.incoming                                 # built once per graph on both paths, not timed

@@ -12,6 +12,12 @@ False = numpy; None = the environment switch ``PROCGEN_ACCELERATE`` (``1``: like
 like False), else compiled when numba is installed and the workload is at least the path's
 ``min_work`` (importing numba and loading cached kernels costs ~0.5 s per process, so small
 runs stay on numpy).
+
+Threads: the kernels that update every cell independently run in parallel over numba's
+threads (``NUMBA_NUM_THREADS``, default all cores; the result does not depend on the count).
+On a shared or oversubscribed machine, busy-waiting OpenMP threads steal the time of the
+others, so unless the user set it, ``OMP_WAIT_POLICY`` is made ``PASSIVE`` (idle threads
+sleep) before the first kernel module loads.
 """
 from __future__ import annotations
 
@@ -57,4 +63,5 @@ def kernels(module: str, accelerate: bool | None = None, work: int = 0, min_work
 def _load(module: str) -> ModuleType | None:
     if importlib.util.find_spec("numba") is None:
         return None
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     return importlib.import_module(module)

@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from procgen import Grid, State
 from procgen.ca.graph import CellGraph, grid_graph
-from procgen.ca.lifelike import life_step, parse_rule
+from procgen.ca.lifelike import LifeLike, life_step, parse_rule
 from procgen.ca.propagation import VoronoiGrowth, place_seeds
 
 
@@ -63,3 +64,40 @@ def test_compiled_voronoi_equals_numpy_voronoi(name, p_diagonal):
         assert len(ref.frontier) == 0 and np.all(ref.labels[present] != 0)
     assert np.sum(ref.labels > 0) > 0.5 * g.n_cells
     assert r1.random() == r2.random()               # and drew the same numbers
+
+
+def _life_rule_run(accelerate: str, monkeypatch, params: dict, steps: int = 25) -> list[tuple]:
+    """ca.life on a 40 x 60 grid with holes; the fields after every step."""
+    monkeypatch.setenv("PROCGEN_ACCELERATE", accelerate)
+    rng = np.random.default_rng(2)
+    dom = Grid((40, 60))
+    dom.add_field("cell__alive", rng.random((40, 60)) > 0.05, at="cell")
+    dom.add_field("exposure__birth", rng.random((40, 60)), at="cell")
+    rule = LifeLike.from_params(params)
+    st = State(seed=3)
+    st.add_domain("cells", dom)
+    st.rule_name = rule.name
+    rule.setup(st)
+    assert (rule._run is not None) == (accelerate == "1")
+    out = []
+    for k in range(steps):
+        st.iteration = k
+        changed = rule.step(st)
+        out.append((changed, np.array(dom["ca__alive"]), np.array(dom["ca__age"])))
+    return out
+
+
+@pytest.mark.parametrize("params", [
+    {"rule": "B3/S23", "age_mode": "cumulative", "initial_age": 3},
+    {"rule": "25/357", "semantics": "table", "age_mode": "consecutive", "birth_field": "exposure__birth"},
+    {"rule": "B2/S", "age_mode": "since_first", "density": 0.05},
+    {"rule": "B1/S012", "age_mode": "consecutive", "neighbourhood": "von_neumann", "density": 0.1}])
+def test_compiled_life_rule_equals_numpy_rule(params, monkeypatch):
+    """The fused compiled step (state, presence, birth draws, ever-alive, age, changed flag)."""
+    ref = _life_rule_run("0", monkeypatch, params)
+    fast = _life_rule_run("1", monkeypatch, params)
+    for k, ((c1, a1, g1), (c2, a2, g2)) in enumerate(zip(ref, fast)):
+        assert c1 == c2, k
+        np.testing.assert_array_equal(a2, a1, err_msg=f"state at step {k}")
+        np.testing.assert_array_equal(g2, g1, err_msg=f"age at step {k}")
+    assert any(c for c, _, _ in ref) and ref[-1][2].max() > 3

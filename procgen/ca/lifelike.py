@@ -185,6 +185,9 @@ class LifeLike(StateAutomaton):
         if self.initial_age > 0:
             k = int(self._alive.sum())
             self._age[self._alive] = rng.integers(1, self.initial_age + 1, k)
+        kern = kernels("procgen.ca.kernels", None, len(self._present), MIN_CELLS)
+        self._run = None if kern is None else kern.LifeRun(
+            self._graph, self._present, self._lut, self.age_mode, self._alive, self._ever, self._age)
         self._write(dom)
         if self.birth_field:
             self.birth_probability(dom)              # a missing or out-of-range field fails now
@@ -195,6 +198,16 @@ class LifeLike(StateAutomaton):
 
     def step(self, state: State) -> bool:
         dom = state.get(self.cells)
+        if self._run is not None:                    # compiled: one fused kernel, no temporaries
+            run = self._run
+            p = None
+            if self.birth_field:
+                p = self.birth_probability(dom)
+                state.rng().random(out=run.draws())
+            changed = run.step(p)
+            self._alive, self._ever, self._age = run.alive, run.ever, run.age
+            self._write(dom)
+            return changed
         new = life_step(self._graph, self._alive, self._lut) & self._present
         if self.birth_field:                         # a birth happens with probability p
             new &= self._alive | (state.rng().random(len(new)) < self.birth_probability(dom))
