@@ -2,12 +2,15 @@
 vs the compiled path (procgen_snaxel.events_numba) vs a trivial kernel (issue 16).
 
 One cloud (thesis table 4.5 scaled to the domain, like tests/test_snaxel_engine.py) grows on a
-Poisson-disk tessellation; every call of ``Snake.find`` and ``Snake.birth`` is timed (CPU time)
-and the total is divided by the number of births.  Each path runs in its own process (own peak
-RSS), the paths alternate twice and each keeps its fastest run.  The limit replays the same
-events with a trivial compiled kernel doing an event's unavoidable memory traffic: one scan of
-the chain's destination column and one copy of the chain (80 bytes per snaxel) into a new one.
-Both paths' final chains are hashed (they must agree bit for bit).
+Poisson-disk tessellation; the CPU time of the event handling is summed over the run and divided
+by the number of births: on the numpy path every call of ``Snake.find`` and ``Snake.birth`` (the
+loop around them is not counted, which favours numpy), on the compiled path every call of
+``events_numba.step_events`` (all the arrivals of a step, the numpy births it hands back
+included).  Each path runs in its own process (own peak RSS), the paths alternate twice and each
+keeps its fastest run.  The limit replays the same births in one compiled call doing an event's
+unavoidable memory traffic: one scan of the chain's destination column and one copy of the
+chain (80 bytes per snaxel) into a buffer.  Both paths' final chains are hashed (they must agree
+bit for bit).
 
     python benchmarks/snaxel_events.py [--size 400] [--steps 1500]
 """
@@ -37,47 +40,65 @@ def build(size: float, steps: int) -> CloudGrowth:
 
 
 class Timer:
-    """Wraps Snake.find / Snake.birth: CPU time inside them, and the chain length per birth."""
+    """Wraps the event handling (Snake.find / Snake.birth, events_numba.step_events): CPU time
+    inside it, and the chain length at every birth."""
 
-    def __init__(self) -> None:
+    def __init__(self, snake_cls, compiled) -> None:
         self.seconds = 0.0
-        self.births = 0
         self.lengths: list[int] = []
-        self.find, self.birth = Snake.find, Snake.birth
+        self.depth = 0
         timer = self
 
-        def find(snake, u, v):
-            t0 = time.process_time()
-            try:
-                return timer.find(snake, u, v)
-            finally:
-                timer.seconds += time.process_time() - t0
+        def wrap(cls, name):
+            inner = getattr(cls, name)
 
-        def birth(snake, p, carry):
-            timer.lengths.append(len(snake.ints))
-            t0 = time.process_time()
-            try:
-                return timer.birth(snake, p, carry)
-            finally:
-                timer.seconds += time.process_time() - t0
-                timer.births += 1
+            def timed(*args):
+                timer.depth += 1
+                t0 = time.process_time()
+                try:
+                    return inner(*args)
+                finally:
+                    timer.depth -= 1
+                    if not timer.depth:            # numpy births inside step_events count once
+                        timer.seconds += time.process_time() - t0
+            setattr(cls, name, timed)
+        wrap(snake_cls, "find")
+        wrap(snake_cls, "birth")
+        if compiled is not None:
+            wrap(compiled, "step_events")
 
-        Snake.find, Snake.birth = find, birth
+
+def _lengths(snake_cls) -> list[int]:
+    """Records the chain length at every birth (the limit replays them)."""
+    lengths: list[int] = []
+
+    def count(self):
+        return self.__dict__.get("_births", 0)
+
+    def set_births(self, value):
+        if value > self.__dict__.get("_births", 0):
+            lengths.append(len(self.ints))
+        self.__dict__["_births"] = value
+    snake_cls.births = property(count, set_births)
+    return lengths
 
 
 def path_child(a) -> None:
     fig: dict = {}
-    accelerate = a.path != "numpy"
+    accelerate = a.path == "compiled"          # (the limit records every birth on the numpy path)
+    compiled = None
     if accelerate:                               # numba import + kernel load (or compile)
+        from procgen_snaxel import events_numba as compiled
         t0 = time.perf_counter()
         w = build(100.0, 30)
         w.snake.accelerate = True
         while w.step():
             pass
         fig["warmup_s"] = round(time.perf_counter() - t0, 2)
+    lengths = _lengths(Snake) if a.path == "limit" else []
     g = build(a.size, a.steps)
     g.snake.accelerate = accelerate
-    timer = Timer()
+    timer = Timer(Snake, compiled)
     t0 = time.process_time()
     while g.step():
         pass
@@ -87,29 +108,32 @@ def path_child(a) -> None:
         from numba import njit
 
         @njit(cache=True, nogil=True)
-        def event(ints, flts, w):
-            hit = -1
-            for i in range(ints.shape[0]):           # one scan of the destination column
-                if ints[i, V] == w:
-                    hit = i
-            return ints.copy(), flts.copy(), hit     # one copy of the chain
+        def events(lengths, ints, flts, out_i, out_f):
+            hits = 0
+            for n in lengths:
+                for i in range(n):                  # one scan of the destination column
+                    if ints[i, V] == -1:
+                        hits += 1
+                out_i[:n] = ints[:n]                # one copy of the chain
+                out_f[:n] = flts[:n]
+            return hits
 
-        lengths = timer.lengths
         big = max(lengths)
         ints, flts = np.zeros((big, 3), np.int64), np.zeros((big, 7))
-        event(ints[:10], flts[:10], -1)
+        oi, of = np.empty_like(ints), np.empty_like(flts)
+        n_arr = np.asarray(lengths, np.int64)
+        events(n_arr[:10], ints, flts, oi, of)
         t0 = time.process_time()
-        for n in lengths:
-            event(ints[:n], flts[:n], -1)
+        events(n_arr, ints, flts, oi, of)
         t = time.process_time() - t0
         _paths.report(seconds=t / len(lengths), births=len(lengths), mean_chain=round(float(np.mean(lengths))),
                       bytes_per_snaxel=int(ints.itemsize * 3 + flts.itemsize * 7))
         return
     digest = hashlib.sha256(s.ints.tobytes() + s.flts.tobytes() + s.state.tobytes()).hexdigest()[:16]
-    fig.update(hash=digest, births=timer.births, merges=s.merges, holes=s.holes, N_s=len(s.ints),
+    fig.update(hash=digest, births=s.births, merges=s.merges, holes=s.holes, N_s=len(s.ints),
                events_s=round(timer.seconds, 3), growth_s=round(grow_s, 2),
                events_share=round(timer.seconds / grow_s, 3))
-    _paths.report(seconds=timer.seconds / max(timer.births, 1), **fig)
+    _paths.report(seconds=timer.seconds / max(s.births, 1), **fig)
 
 
 def main() -> None:

@@ -18,8 +18,11 @@ def _grow(topo, accelerate: bool, seed: int, steps: int):
     return g
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_compiled_events_grow_the_same_cloud(seed):
+@pytest.mark.parametrize("seed,room", [(1, 8), (2, 0)])
+def test_compiled_events_grow_the_same_cloud(seed, room, monkeypatch):
+    """One compiled call per step (room 0: the chain buffer must grow during most steps)."""
+    import procgen_snaxel.events_numba as ev
+    monkeypatch.setattr(ev, "ROOM", room)
     topo = poisson_tessellation(160.0, 160.0, 1.6, np.random.default_rng(5))
     a, b = _grow(topo, False, seed, 400), _grow(topo, True, seed, 400)
     sa, sb = a.snake, b.snake
@@ -27,5 +30,5 @@ def test_compiled_events_grow_the_same_cloud(seed):
     np.testing.assert_array_equal(sb.flts, sa.flts)
     np.testing.assert_array_equal(sb.state, sa.state)
     assert (sb.births, sb.merges, sb.holes, sb.filled) == (sa.births, sa.merges, sa.holes, sa.filled)
-    assert sa.births > 300 and sa.merges > 0          # many events, merges among them
+    assert sa.births > 300 and sa.merges > 0 and sa.holes > 0   # many events, merges and holes
     check_snake(b, None)                              # and the compiled chain is a valid snake

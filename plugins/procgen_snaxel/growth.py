@@ -12,6 +12,7 @@ from typing import Callable
 import numpy as np
 from shapely.geometry import Polygon
 
+from procgen.accel import MIN_SNAXELS, kernels
 from procgen.geometry import signed_area
 
 from .fractal import raster_area_perimeter
@@ -341,6 +342,11 @@ class CloudGrowth:
         if len(arrived):
             when = (f[arrived, ELEN] - pos_old[arrived]) / v[arrived]
             order = arrived[np.lexsort((arrived, when))]
+            kern = None if snake.head_on else kernels("procgen_snaxel.events_numba", snake.accelerate,
+                                                      len(snake), MIN_SNAXELS)
+            if kern is not None:           # all of them in one compiled call (the same chain)
+                kern.step_events(snake, snake.ints[order, U], snake.ints[order, V], f[order, POS] - f[order, ELEN])
+                order = order[:0]
             events = [(int(snake.ints[i, U]), int(snake.ints[i, V]), float(f[i, POS] - f[i, ELEN]))
                       for i in order]
             for u, w, carry in events:     # per topology event (~2 per step)
