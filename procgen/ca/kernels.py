@@ -201,19 +201,30 @@ def _rule_csr(indptr, indices, a, lut, present, u, p, out, ever, age, mode):
 # Voronoi propagation
 
 class VoronoiWork:
-    """Per-graph buffers of the compiled Voronoi step (entries, cells) and the transposed graph."""
+    """Per-graph buffers of the compiled Voronoi step (entries, cells) and the transposed graph.
+
+    ``st`` is one byte per cell for the neighbour tests (0 unlabelled, 1 labelled, 2 hole, +4
+    queued for the next frontier): a quarter of the int32 labels' bytes in the cache.  It
+    follows ``labels``, which the compiled step updates in place (a new labels array, e.g. set
+    from outside, is read again)."""
 
     def __init__(self, graph: CellGraph) -> None:
         nnz, n = graph.indices.size, graph.n_cells
         self.u = np.empty(nnz)
         self.keys = np.empty(nnz)
-        self.ok = np.empty(nnz, bool)
-        self.mark = np.zeros(n, bool)
+        self.ok = np.empty(nnz, np.uint8)
         self.buf = np.empty(n, np.int64)
+        self.st = np.zeros(n, np.uint8)
+        self.labels = None
         back = graph.incoming
         self.indices = compact_indices(graph)
         self.back_indptr, self.back_indices = back.indptr, compact_indices(back)
         self.diag = graph.is_diagonal if graph.direction is not None else np.zeros(0, bool)
+
+    def follow(self, labels: np.ndarray) -> None:
+        if self.labels is not labels:
+            self.st[:] = np.where(labels > 0, 1, np.where(labels < 0, 2, 0))
+            self.labels = labels
 
 
 def voronoi_step(grow, rng: np.random.Generator) -> int:
@@ -225,17 +236,18 @@ def voronoi_step(grow, rng: np.random.Generator) -> int:
     work = grow.__dict__.get(_ATTR)
     if work is None:
         work = grow.__dict__[_ATTR] = VoronoiWork(g)
+    work.follow(grow.labels)
     front = np.ascontiguousarray(front, np.int64)
     ne = _entries(g.indptr, front)
     rng.random(out=work.u[:ne])
-    nok = _candidates(g.indptr, work.indices, grow.labels, work.diag, work.diag.size > 0,
+    nok = _candidates(g.indptr, work.indices, work.st, work.diag, work.diag.size > 0,
                       float(grow.p_diagonal), front, work.u, work.ok)
     if nok == 0:                      # pick_one_per_row draws nothing then
         grow.frontier = front[grow.labels[front] == 0]
         return 0
     rng.random(out=work.keys[:nok])
-    nnew, nf = _pick(g.indptr, work.indices, work.back_indptr, work.back_indices, grow.labels, front,
-                     work.ok, work.keys, work.mark, work.buf)
+    nnew, nf = _pick(g.indptr, work.indices, work.back_indptr, work.back_indices, grow.labels, work.st,
+                     front, work.ok, work.keys, work.buf)
     grow.frontier = np.sort(work.buf[:nf])
     return int(nnew)
 
@@ -249,13 +261,13 @@ def _entries(indptr, front):
 
 
 @njit(cache=True, nogil=True)
-def _candidates(indptr, indices, labels, diag, has_diag, p_diagonal, front, u, ok):
+def _candidates(indptr, indices, st, diag, has_diag, p_diagonal, front, u, ok):
     """ok per frontier entry: a labelled source, side link or diagonal draw below P."""
     e = 0
     nok = 0
     for c in front:
         for j in range(indptr[c], indptr[c + 1]):
-            good = labels[indices[j]] > 0 and (not (has_diag and diag[j]) or u[e] < p_diagonal)
+            good = st[indices[j]] & 3 == 1 and (not (has_diag and diag[j]) or u[e] < p_diagonal)
             ok[e] = good
             nok += good
             e += 1
@@ -263,22 +275,24 @@ def _candidates(indptr, indices, labels, diag, has_diag, p_diagonal, front, u, o
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _unlabelled_of(indptr, indices, c, labels, mark, buf, nf):
-    """Append c's unmarked, unlabelled neighbours to buf[nf:]; returns the new length."""
+def _queue_unlabelled(indptr, indices, c, st, buf, nf):
+    """Append c's unqueued, unlabelled neighbours to buf[nf:]; returns the new length."""
     for j in range(indptr[c], indptr[c + 1]):
         t = indices[j]
-        if labels[t] == 0 and not mark[t]:
-            mark[t] = True
+        if st[t] == 0:
+            st[t] = 4
             buf[nf] = t
             nf += 1
     return nf
 
 
 @njit(cache=True, nogil=True)
-def _pick(indptr, indices, bptr, bidx, labels, front, ok, keys, mark, buf):
+def _pick(indptr, indices, bptr, bidx, labels, st, front, ok, keys, buf):
     """Per frontier cell the candidate of smallest key passes its label (labels in place; a
-    candidate's source was labelled before the step, so in-place writes change no choice).
-    buf[:nf] = the next frontier, unsorted (mark is left clear)."""
+    candidate's source was labelled before the step, so in-place writes change no choice), and
+    in the same pass the next frontier is queued: the frontier cells left unlabelled and the
+    unlabelled cells next to (either way) a new label.  A queued neighbour labelled later in
+    the pass is dropped at the end.  buf[:nf] = the next frontier, unsorted."""
     e = 0
     k = 0
     nnew = 0
@@ -295,16 +309,19 @@ def _pick(indptr, indices, bptr, bidx, labels, front, ok, keys, mark, buf):
             e += 1
         if best >= 0:
             labels[c] = labels[indices[best]]
+            st[c] = 1                          # (a queued front cell keeps its slot: dropped below)
             nnew += 1
-    for c in front:                   # still unlabelled frontier cells, and the unlabelled
-        if labels[c] == 0:            # cells next to (either way) a new label
-            if not mark[c]:
-                mark[c] = True
-                buf[nf] = c
-                nf += 1
-            continue
-        nf = _unlabelled_of(indptr, indices, c, labels, mark, buf, nf)
-        nf = _unlabelled_of(bptr, bidx, c, labels, mark, buf, nf)
+            nf = _queue_unlabelled(indptr, indices, c, st, buf, nf)
+            nf = _queue_unlabelled(bptr, bidx, c, st, buf, nf)
+        elif st[c] == 0:
+            st[c] = 4
+            buf[nf] = c
+            nf += 1
+    m = 0
     for i in range(nf):
-        mark[buf[i]] = False
-    return nnew, nf
+        t = buf[i]
+        if st[t] == 4:
+            st[t] = 0
+            buf[m] = t
+            m += 1
+    return nnew, m
