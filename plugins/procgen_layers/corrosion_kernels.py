@@ -11,14 +11,16 @@ targets, one per attack for the noise), the Efraimidis-Spirakis keys log(u)/w an
 (largest first, ties in entry order) are the numpy path's, and every float expression keeps its
 order (tests/test_corrode_kernels.py compares whole runs).  Buffers live on the graph and are
 reused: a step allocates nothing proportional to the domain (``attacks``/``valid_neighbours``
-of the state are zeroed in place instead of replaced).
+of the state are zeroed in place instead of replaced).  The per-cell passes (open cells,
+thinning) run in parallel over numba's threads; each cell writes only its own slots, so the
+result does not depend on the thread count.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from procgen.ca.graph import CellGraph
 
@@ -58,8 +60,9 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
         st.attacks = np.zeros(n, np.int64)
         st.valid_neighbours = np.zeros(n, np.int64)
     blk = np.zeros(0, bool) if blocked is None else np.asarray(blocked, bool)
-    npool, nfront, ne = _prepare(graph.indptr, graph.indices, st.status, st.consumable, st.strong, blk,
-                                 work.status0, work.open_, work.front)
+    npool = _open_cells(st.status, st.consumable, st.strong, blk, work.status0, work.open_,
+                        st.attacks, st.valid_neighbours)
+    nfront, ne = _front(graph.indptr, graph.indices, work.status0, work.open_, work.front)
     seeds = np.zeros(0, np.int64)
     room = prm.max_seeds - st.seeds_used
     if room > 0 and prm.seed_rate > 0:
@@ -71,8 +74,6 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
             out.seed_cells = seeds
             st.seeds_used += k
             out.new_seeds = k
-    st.attacks[:] = 0
-    st.valid_neighbours[:] = 0
     nch = 0
     if nfront:
         rng.random(out=work.u[:ne])
@@ -101,24 +102,31 @@ def _has_metal(consumable, c):
     return s
 
 
-@njit(cache=True, nogil=True)
-def _prepare(indptr, indices, status, consumable, strong, blocked, status0, open_, front):
-    """status0, open_ (normal, metal left, not blocked), the weak open pool size, and the front
-    (corroded cells touching an open cell) with its entry count."""
-    n = status.size
+@njit(cache=True, nogil=True, parallel=True)
+def _open_cells(status, consumable, strong, blocked, status0, open_, attacks, valid_nbrs):
+    """status0, open_ (normal, metal left, not blocked), attacks = valid_nbrs = 0, in parallel
+    over the cells; returns the size of the weak open pool."""
     npool = 0
-    for c in range(n):
+    for c in prange(status.size):
         s = status[c]
         status0[c] = s
         o = s == NORMAL and _has_metal(consumable, c) > 0
         if blocked.size and blocked[c]:
             o = False
         open_[c] = o
+        attacks[c] = 0
+        valid_nbrs[c] = 0
         if o and not strong[c]:
             npool += 1
+    return npool
+
+
+@njit(cache=True, nogil=True)
+def _front(indptr, indices, status0, open_, front):
+    """The front (corroded cells touching an open cell, in cell order) and its entry count."""
     nfront = 0
     ne = 0
-    for c in range(n):
+    for c in range(status0.size):
         if status0[c] != CORRODED:
             continue
         for j in range(indptr[c], indptr[c + 1]):
@@ -127,7 +135,7 @@ def _prepare(indptr, indices, status, consumable, strong, blocked, status0, open
                 nfront += 1
                 ne += indptr[c + 1] - indptr[c]
                 break
-    return npool, nfront, ne
+    return nfront, ne
 
 
 @njit(cache=True, nogil=True)
@@ -223,9 +231,22 @@ def _resolve(indptr, indices, status0, open_, newc, seeds, front, chosen, chosen
         defence = b0 + b1 * sh + strong_bonus * (1.0 if strong[t] else 0.0)
         if attack > defence:
             newc[t] = 1
+    holes = _thin(status0, status, consumable, product, age, k1, k2, k3)
+    newly = 0
+    for s in seeds:
+        newly += _settle(s, newc, open_, status)
+    for i in range(nch):
+        newly += _settle(indices[chosen[i]], newc, open_, status)
+    return holes, newly
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _thin(status0, status, consumable, product, age, k1, k2, k3):
+    """Cells corroded at the start of the step thin (top layer first), oxidise and age, in
+    parallel over the cells (each touches only its own slots); returns the new holes."""
     holes = 0
     L = consumable.shape[1]
-    for c in range(status0.size):
+    for c in prange(status0.size):
         if status0[c] != CORRODED:
             continue
         remove = k1
@@ -241,12 +262,7 @@ def _resolve(indptr, indices, status0, open_, newc, seeds, front, chosen, chosen
                 consumable[c, l] = 0.0
             status[c] = HOLE
             holes += 1
-    newly = 0
-    for s in seeds:
-        newly += _settle(s, newc, open_, status)
-    for i in range(nch):
-        newly += _settle(indices[chosen[i]], newc, open_, status)
-    return holes, newly
+    return holes
 
 
 @njit(cache=True, nogil=True, inline="always")
