@@ -11,7 +11,8 @@ stretch of the chain, w's unvisited neighbours one angular run, ~95% of births) 
 chain buffer with room to grow.  At the first birth that is not simple (a non-connected merge,
 holes) the kernel stops, ``Snake.birth`` (numpy) handles that event, and the kernel resumes at
 the next one.  :func:`find` and :func:`birth` are the per-event forms ``Snake.find`` /
-``Snake.birth`` use (thesis-literal head-on merges stay on that path).  Imported only through
+``Snake.birth`` use (thesis-literal head-on merges stay on that path), the same kernel on
+one event.  Imported only through
 :func:`procgen.accel.kernels` (this module needs numba).
 
 Same results, exactly: the children's geometry uses the numpy path's expressions in the same
@@ -37,18 +38,8 @@ def find(snake, u: int, v: int) -> int:
 def birth(snake, p: int, carry: float) -> bool:
     """``Snake.birth`` for a simple birth (state, counters and chain updated); False, with
     nothing changed, when the birth is not simple (the caller runs the numpy path)."""
-    ints = snake.ints
-    w = int(ints[p, V])
-    ring = np.asarray(snake.topo.neighbours(w), np.int64)
-    res = _simple(ints, snake.flts, p, w, ring, snake.state, snake.topo.points, float(carry),
-                  snake.min_offset)
-    if res is None:
-        return False
-    snake.ints, snake.flts, n_w = res
-    snake.state[w] = VISITED
-    snake.births += 1
-    snake.merges += int(n_w) - 1
-    return True
+    one = slice(p, p + 1)
+    return _handle(snake, snake.ints[one, U], snake.ints[one, V], np.array([carry], np.float64), True) == 1
 
 
 @njit(cache=True, nogil=True)
@@ -58,76 +49,6 @@ def _find(ints, u, v):
             return i
     return -1
 
-
-@njit(cache=True, nogil=True)
-def _simple(ints, flts, p, w, ring, state, pts, carry, min_offset):
-    n = ints.shape[0]
-    i = -1
-    j = -1
-    cnt = 0
-    for k in range(n):
-        if ints[k, V] == w:
-            if i < 0:
-                i = k
-            j = k
-            cnt += 1
-    if j - i + 1 != cnt:
-        return None
-    d = ring.size
-    j0 = -1
-    for q in range(d):
-        if state[ring[q]] != UNVISITED:
-            j0 = q
-            break
-    if j0 < 0:                                  # every neighbour unvisited
-        return None
-    first = -1
-    last = -1
-    for q in range(d):
-        if state[ring[(j0 + q) % d]] == UNVISITED:
-            if first < 0:
-                first = q
-            last = q
-    if first < 0:                               # no unvisited neighbour: the numpy path raises
-        return None
-    for q in range(first, last + 1):
-        if state[ring[(j0 + q) % d]] != UNVISITED:
-            return None
-    nc = last - first + 1
-    m = n - cnt + nc
-    oi = np.empty((m, 3), np.int64)
-    of = np.empty((m, 7), np.float64)
-    at = i                                     # (i == 0: the first child becomes the head)
-    for k in range(i):
-        oi[k] = ints[k]
-        of[k] = flts[k]
-    t_parent = flts[p, T]
-    curve = ints[p, CURVE]
-    wx = pts[w, 0]
-    wy = pts[w, 1]
-    for q in range(nc):
-        vtx = ring[(j0 + first + q) % d]
-        dx = pts[vtx, 0] - wx
-        dy = pts[vtx, 1] - wy
-        elen = math.hypot(dx, dy)
-        r = at + q
-        oi[r, U] = w
-        oi[r, V] = vtx
-        oi[r, CURVE] = curve
-        of[r, POS] = min(max(carry, min_offset * elen), 0.5 * elen)
-        of[r, T] = t_parent
-        of[r, ELEN] = elen
-        of[r, OX] = wx
-        of[r, OY] = wy
-        of[r, DX] = dx / elen
-        of[r, DY] = dy / elen
-    r = at + nc
-    for k in range(j + 1, n):
-        oi[r] = ints[k]
-        of[r] = flts[k]
-        r += 1
-    return oi, of, cnt
-
 ROOM = 8
 """Rows of room per event in the chain buffer (a birth adds at most degree - 2 snaxels; the
 kernel asks for a bigger buffer when a step needs more)."""
@@ -136,8 +57,13 @@ kernel asks for a bigger buffer when a step needs more)."""
 def step_events(snake, u: np.ndarray, w: np.ndarray, carry: np.ndarray) -> None:
     """The arrivals (u -> w with ``carry`` past w each, in arrival order) of one step, like
     ``CloudGrowth.step``'s loop over ``Snake.find`` / ``Snake.birth``."""
-    u, w = np.ascontiguousarray(u, np.int64), np.ascontiguousarray(w, np.int64)
-    carry = np.ascontiguousarray(carry, np.float64)
+    _handle(snake, np.ascontiguousarray(u, np.int64), np.ascontiguousarray(w, np.int64),
+            np.ascontiguousarray(carry, np.float64), False)
+
+
+def _handle(snake, u: np.ndarray, w: np.ndarray, carry: np.ndarray, stop: bool) -> int:
+    """Events in order by the kernel; one that is not simple goes to ``Snake.birth`` (numpy),
+    or with ``stop`` ends the call.  Returns the number of events handled."""
     n = len(snake.ints)
     ints, flts = _room(snake.ints, snake.flts, n, n + ROOM * len(w) + 16)
     k = 0
@@ -147,7 +73,7 @@ def step_events(snake, u: np.ndarray, w: np.ndarray, carry: np.ndarray) -> None:
                                           topo.ring_hi, snake.state, topo.points, snake.min_offset)
         snake.births += births
         snake.merges += merges
-        if k == len(w):
+        if k == len(w) or stop and p >= 0:
             break
         if p < 0:                              # no room for the children: a bigger buffer
             ints, flts = _room(ints, flts, n, 2 * len(ints))
@@ -157,7 +83,9 @@ def step_events(snake, u: np.ndarray, w: np.ndarray, carry: np.ndarray) -> None:
         n = len(snake.ints)
         ints, flts = _room(snake.ints, snake.flts, n, n + ROOM * (len(w) - k) + 16)
         k += 1
-    snake.ints, snake.flts = ints[:n], flts[:n]
+    if k:
+        snake.ints, snake.flts = ints[:n], flts[:n]
+    return k
 
 
 def _room(ints: np.ndarray, flts: np.ndarray, n: int, cap: int) -> tuple[np.ndarray, np.ndarray]:
