@@ -135,7 +135,7 @@ class CellSeeding(RuleBase):
                        max_bytes=memory_limit_bytes())
         if len(s.positions) == 0:
             raise InputError(f"{self.name}: no cell fits on mesh {self.mesh!r} at cs = {cs:g}")
-        net = CellNetwork(s.positions, cs=cs, grid=self.grid)
+        net = CellNetwork(s.positions, cs=cs, grid=self.grid, normals=self.normals)
         net.add_field("cell__normal", s.normals, at="cell", doc="unit normal")
         put_states(net, np.full(net.n_cells, ACTIVE, np.int8))
         poly = _face_ids(mesh, "face__polygon", np.int32) if "face__polygon" in mesh else \
