@@ -48,8 +48,11 @@ def test_random_grid_has_round_area_cells_per_plane():
     assert len(s.positions) == round(L * L / 0.49)
 
 
+@pytest.mark.parametrize("accelerate", [False, True], ids=["numpy", "numba"])
 @pytest.mark.parametrize("layout", ["random", "clustered", "far", "scattered"])
-def test_every_method_gives_identical_links(layout):
+def test_every_method_gives_identical_links(layout, accelerate):
+    if accelerate:
+        pytest.importorskip("numba")
     rng = np.random.default_rng(3)
     if layout == "scattered":       # clusters 1e13 boxes apart: keys too spread to pack in int64
         a = rng.random((500, 3)) * [10, 10, 4]
@@ -62,7 +65,7 @@ def test_every_method_gives_identical_links(layout):
     else:                            # +-1e6 boxes from the origin
         p = rng.random((1500, 3)) * [20, 20, 4] + np.array([1e6, -1e6, 3e5]) * 2.0
     r = math.sqrt(3) - 0.01
-    boxes = pairs_within(p, r, BoxIndex.build(p, 2.0))
+    boxes = pairs_within(p, r, BoxIndex.build(p, 2.0), accelerate=accelerate)
     assert len(boxes) > 1000
     assert np.array_equal(boxes, pairs_kdtree(p, r))
     assert np.array_equal(boxes, pairs_brute(p, r))
@@ -70,7 +73,7 @@ def test_every_method_gives_identical_links(layout):
     moved = p + np.array([-7, 1234567, 89]) * 2.0
     ib, im = BoxIndex.build(p, 2.0), BoxIndex.build(moved, 2.0)
     assert ib.n_boxes == im.n_boxes and np.array_equal(ib.counts, im.counts)
-    assert np.array_equal(pairs_within(moved, r, im), boxes)
+    assert np.array_equal(pairs_within(moved, r, im, accelerate=accelerate), boxes)
     # the packed-key lookup and the walk down the x -> y -> z levels agree, present or not
     assert (ib._packed is None) == (layout == "scattered")
     q = np.concatenate([ib.keys, ib.keys + [0, 0, 1], ib.keys + [3, -2, 0], ib.keys * 2])
