@@ -10,8 +10,8 @@ from procgen import InputError, RecipeError, check_recipe, run
 from procgen.ca.cells import cell_graph, is_cell_domain
 from procgen.ca.graph import grid_graph
 
+from _cellnet import pyramid_variants
 from procgen_cellnet.boxes import BoxIndex, pairs_brute, pairs_kdtree, pairs_within
-from procgen_cellnet.build import PYRAMID
 from procgen_cellnet.network import CellNetwork
 from procgen_cellnet.polygons import polygons_mesh
 from procgen_cellnet.seeding import DEGREE, DENSITY, link_radius, seed_cells
@@ -141,24 +141,9 @@ def test_dynamic_moves_equal_a_rebuild():
         assert np.all(idx.counts > 0)      # no empty box survives
 
 
-def _pyramid_variants():
-    """One square pyramid (base 4, apex (2, 2, 2)) as triangles, convex, concave+holed polygons."""
-    A, B, C, D, E = [0, 0, 0], [4, 0, 0], [4, 4, 0], [0, 4, 0], [2, 2, 2]
-    sides = PYRAMID[:4]
-    tris = sides + [[[A, D, C]], [[A, C, B]]]
-    convex = PYRAMID
-    inner = [3, 0.6, 0.6]                         # a point inside side A-B-E
-    concave = [[[A, B, E, inner]], [[A, inner, E]]] + sides[1:] + [
-        [[A, D, [2, 4, 0], [2, 2, 0], [4, 2, 0], B]],                      # an L (concave)
-        [[[2, 2, 0], [2, 4, 0], C, [4, 2, 0]], [[2.5, 2.5, 0], [3.5, 2.5, 0], [3.5, 3.5, 0], [2.5, 3.5, 0]]],
-        [[[2.5, 2.5, 0], [3.5, 2.5, 0], [3.5, 3.5, 0], [2.5, 3.5, 0]]],   # the hole's filling
-    ]
-    return tris, convex, concave
-
-
 def test_figure_8_decomposition_gives_the_same_network():
     results = []
-    for polys in _pyramid_variants():
+    for polys in pyramid_variants():
         m = polygons_mesh(polys, None, None)
         s = seed_cells(m.vertices, m.faces, "square8", 0.25)
         order = np.lexsort(np.round(s.positions / 1e-7).T[::-1])
