@@ -10,8 +10,8 @@ from procgen import InputError, RecipeError, check_recipe, run
 from procgen.ca.cells import cell_graph, is_cell_domain
 from procgen.ca.graph import grid_graph
 
+from _cellnet import pyramid_variants
 from procgen_cellnet.boxes import BoxIndex, pairs_brute, pairs_kdtree, pairs_within
-from procgen_cellnet.build import PYRAMID
 from procgen_cellnet.network import CellNetwork
 from procgen_cellnet.polygons import polygons_mesh
 from procgen_cellnet.seeding import DEGREE, DENSITY, link_radius, seed_cells
@@ -48,8 +48,11 @@ def test_random_grid_has_round_area_cells_per_plane():
     assert len(s.positions) == round(L * L / 0.49)
 
 
+@pytest.mark.parametrize("accelerate", [False, True], ids=["numpy", "numba"])
 @pytest.mark.parametrize("layout", ["random", "clustered", "far", "scattered"])
-def test_every_method_gives_identical_links(layout):
+def test_every_method_gives_identical_links(layout, accelerate):
+    if accelerate:
+        pytest.importorskip("numba")
     rng = np.random.default_rng(3)
     if layout == "scattered":       # clusters 1e13 boxes apart: keys too spread to pack in int64
         a = rng.random((500, 3)) * [10, 10, 4]
@@ -62,7 +65,7 @@ def test_every_method_gives_identical_links(layout):
     else:                            # +-1e6 boxes from the origin
         p = rng.random((1500, 3)) * [20, 20, 4] + np.array([1e6, -1e6, 3e5]) * 2.0
     r = math.sqrt(3) - 0.01
-    boxes = pairs_within(p, r, BoxIndex.build(p, 2.0))
+    boxes = pairs_within(p, r, BoxIndex.build(p, 2.0), accelerate=accelerate)
     assert len(boxes) > 1000
     assert np.array_equal(boxes, pairs_kdtree(p, r))
     assert np.array_equal(boxes, pairs_brute(p, r))
@@ -70,7 +73,7 @@ def test_every_method_gives_identical_links(layout):
     moved = p + np.array([-7, 1234567, 89]) * 2.0
     ib, im = BoxIndex.build(p, 2.0), BoxIndex.build(moved, 2.0)
     assert ib.n_boxes == im.n_boxes and np.array_equal(ib.counts, im.counts)
-    assert np.array_equal(pairs_within(moved, r, im), boxes)
+    assert np.array_equal(pairs_within(moved, r, im, accelerate=accelerate), boxes)
     # the packed-key lookup and the walk down the x -> y -> z levels agree, present or not
     assert (ib._packed is None) == (layout == "scattered")
     q = np.concatenate([ib.keys, ib.keys + [0, 0, 1], ib.keys + [3, -2, 0], ib.keys * 2])
@@ -138,24 +141,9 @@ def test_dynamic_moves_equal_a_rebuild():
         assert np.all(idx.counts > 0)      # no empty box survives
 
 
-def _pyramid_variants():
-    """One square pyramid (base 4, apex (2, 2, 2)) as triangles, convex, concave+holed polygons."""
-    A, B, C, D, E = [0, 0, 0], [4, 0, 0], [4, 4, 0], [0, 4, 0], [2, 2, 2]
-    sides = PYRAMID[:4]
-    tris = sides + [[[A, D, C]], [[A, C, B]]]
-    convex = PYRAMID
-    inner = [3, 0.6, 0.6]                         # a point inside side A-B-E
-    concave = [[[A, B, E, inner]], [[A, inner, E]]] + sides[1:] + [
-        [[A, D, [2, 4, 0], [2, 2, 0], [4, 2, 0], B]],                      # an L (concave)
-        [[[2, 2, 0], [2, 4, 0], C, [4, 2, 0]], [[2.5, 2.5, 0], [3.5, 2.5, 0], [3.5, 3.5, 0], [2.5, 3.5, 0]]],
-        [[[2.5, 2.5, 0], [3.5, 2.5, 0], [3.5, 3.5, 0], [2.5, 3.5, 0]]],   # the hole's filling
-    ]
-    return tris, convex, concave
-
-
 def test_figure_8_decomposition_gives_the_same_network():
     results = []
-    for polys in _pyramid_variants():
+    for polys in pyramid_variants():
         m = polygons_mesh(polys, None, None)
         s = seed_cells(m.vertices, m.faces, "square8", 0.25)
         order = np.lexsort(np.round(s.positions / 1e-7).T[::-1])

@@ -29,8 +29,13 @@ def test_fig_1_runs_every_effect_and_exports_readable_splats(host, tmp_path):
 
     res = _render(host, tmp_path, "fig-1", ["steps.1.params.target_cells=3000"], "s")
     out = tmp_path / "s"
-    reports = json.loads((out / "run.json").read_text())["reports"]
+    run = json.loads((out / "run.json").read_text())
+    reports = run["reports"]
     n = reports["cells.n_cells"]
+    # the eight effects ran as one synchronous network, tens of steps, until nothing changed
+    effects = [s for s in run["steps"] if s["rule"] == "cellnet.parallel"][0]
+    assert effects["iterations"] > 60 and effects["stopped"] == "stable"
+    assert len(effects["params"]["behaviours"]) == 8
     assert reports["cells.transparent_fraction"] > 0          # impacts made holes
     tm = trimesh.load(out / "scene.obj", process=False)
     n_present = round(n * (1 - reports["cells.transparent_fraction"]))

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 from procgen import FieldSpec, State, param
 
 from .boxes import pairs_kdtree
-from .cellrule import EXAMPLE_NET, CellRule
+from .cellrule import EXAMPLE_NET, CellRule, Next
 
 
 def ring_matrices(net, r1: float, r2: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
@@ -68,13 +68,9 @@ class ActivatorInhibitor(CellRule):
             alive = state.rng().random(net.n_cells) < self.density
             net.add_field(self.field, alive, at="cell", doc="activated cells")
 
-    def step(self, state: State) -> bool:
-        net = self.network(state)
-        send, update = self.gates(net)
+    def advance(self, net, send: np.ndarray, update: np.ndarray) -> Next:
         p = np.asarray(net[self.field], bool)
         a1, a2 = self._rings
         s = (p & send).astype(float)
         new = (self.h + self.j1 * (a1 @ s) + self.j2 * (a2 @ s)) > 0
-        new = np.where(update, new, p)
-        net.add_field(self.field, new, at="cell", doc="activated cells")
-        return bool(np.any(new != p))
+        return Next(update, {self.field: np.where(update, new, p)})

@@ -26,6 +26,7 @@ from itertools import product
 import numpy as np
 
 from procgen import InputError
+from procgen.accel import MIN_CELLS, kernels
 
 #: the 27 box offsets of the stencil, (0, 0, 0) first
 STENCIL = np.array([(0, 0, 0)] + [o for o in product((-1, 0, 1), repeat=3) if o != (0, 0, 0)],
@@ -271,7 +272,7 @@ def _near(points: np.ndarray, i: np.ndarray, j: np.ndarray, radius: float) -> np
 
 
 def pairs_within(points: np.ndarray, radius: float, index: BoxIndex,
-                 guard: bool = True) -> np.ndarray:
+                 guard: bool = True, accelerate: bool | None = None) -> np.ndarray:
     """All cell pairs (i < j) closer than ``radius``, from the 27-box search of ``index``.
 
     Cells are taken box after box (the index's order), so a box's cells are one contiguous
@@ -281,13 +282,21 @@ def pairs_within(points: np.ndarray, radius: float, index: BoxIndex,
     ``radius`` from the cube of a touching box skips that box's run; inside one box only the
     cells after a cell are taken, so every pair is met once.  ``guard=False`` runs the stencil
     even when boxes are smaller than the radius, which shows the links kb = 1 loses (paper
-    section 4, the stencil flaw).
+    section 4, the stencil flaw).  ``accelerate`` selects the compiled walk of the same boxes
+    (``boxes_kernels``; same links, tested), by default from ``MIN_CELLS``
+    cells when numba is installed (:func:`procgen.accel.kernels`).
     """
     if guard and index.size < radius:
         raise InputError(f"box search: box side {index.size:g} < link radius {radius:g} "
                          "would miss links")
     order, start, cnt, size = index.order, index.start, index.counts, index.size
     cols = tuple(np.ascontiguousarray(np.asarray(points, float)[order, k]) for k in range(3))
+    packed = index._packed
+    kern = kernels("procgen_cellnet.boxes_kernels", accelerate, len(order), MIN_CELLS)
+    if kern is not None and packed is not None:
+        lo, span, keys = packed
+        offsets = np.array([(o[0] * span[1] + o[1]) * span[2] + o[2] for o in HALF_STENCIL], np.int64)
+        return kern.pairs_within(keys, offsets, start, order, cols, radius)
     # a cell sits in its box's cube up to rounding of floor(p / bs) far from the origin
     pad = 1e-9 * size + 16 * float(np.spacing(max((np.abs(c).max() for c in cols), default=0.0)))
     src, dst = index.box_pairs()

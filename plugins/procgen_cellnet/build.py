@@ -11,6 +11,7 @@ from procgen import FieldSpec, InputError, RuleBase, State, TriMesh, param
 from procgen.recipes import memory_limit_bytes
 
 from .boxes import check_stencil, pairs_brute, pairs_kdtree, pairs_within
+from .orientation import orient_normals
 from .network import CellNetwork
 from .polygons import polygons_mesh
 from .seeding import (BYTES_PER_CELL, DENSITY, GRIDS, SHELL, bond_length, link_radius,
@@ -135,7 +136,7 @@ class CellSeeding(RuleBase):
                        max_bytes=memory_limit_bytes())
         if len(s.positions) == 0:
             raise InputError(f"{self.name}: no cell fits on mesh {self.mesh!r} at cs = {cs:g}")
-        net = CellNetwork(s.positions, cs=cs, grid=self.grid)
+        net = CellNetwork(s.positions, cs=cs, grid=self.grid, normals=self.normals)
         net.add_field("cell__normal", s.normals, at="cell", doc="unit normal")
         put_states(net, np.full(net.n_cells, ACTIVE, np.int8))
         poly = _face_ids(mesh, "face__polygon", np.int32) if "face__polygon" in mesh else \
@@ -181,6 +182,8 @@ class CellLinking(RuleBase):
     method: str = param("boxes", choices=METHODS, doc="27-box search, scipy cKDTree, or all pairs")
     min_normal_dot: float | None = param(None, ge=-1.0, le=1.0,
                                          doc="drop links whose normals' dot product is below this")
+    orient: bool = param(True, doc="give the normals one side over each linked surface (outward "
+                         "on closed ones) whatever the polygons' winding")
 
     def radius_cs(self, grid: str) -> float:
         return self.ri if self.ri is not None else SHELL[grid] - self.eps
@@ -210,6 +213,9 @@ class CellLinking(RuleBase):
             links = pairs_kdtree(net.positions, r)
         else:
             links = pairs_brute(net.positions, r)
+        if self.orient and "cell__normal" in net:
+            net.add_field("cell__normal", orient_normals(net.positions, net.normals(), links),
+                          at="cell", doc="unit normal")
         if self.min_normal_dot is not None:
             n = net.normals()
             links = links[np.einsum("ij,ij->i", n[links[:, 0]], n[links[:, 1]]) >= self.min_normal_dot]

@@ -16,7 +16,7 @@ import numpy as np
 
 from procgen import FieldSpec, InputError, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule, changed
+from .cellrule import EXAMPLE_NET, CellRule, Next, changed
 from .network import CellNetwork
 from .states import LABEL_FIELD, STATE_NAMES, put_states, selection, states
 
@@ -238,10 +238,14 @@ class ColorSpreading(CellRule):
     literal: bool = param(False, doc="the paper's formula for uncoloured cells too (darkens fronts)")
     tol: float = param(1e-6, ge=0.0, doc="stable when no channel changes by more than this")
 
+    def advance(self, net, send: np.ndarray, update: np.ndarray) -> Next:
+        new_c, new_k = spread(net, *colours(net), send, update, self.literal)
+        return Next(update, {COLOR: new_c, COLORED: new_k})
+
     def step(self, state: State) -> bool:
         net = self.network(state)
-        send, update = self.gates(net)
         color, colored = colours(net)
-        new_c, new_k = spread(net, color, colored, send, update, self.literal)
-        put_colours(net, new_c, new_k)
+        nxt = self.advance(net, *self.gates(net))
+        self.commit(state, net, nxt)
+        new_c, new_k = nxt.fields[COLOR], nxt.fields[COLORED]
         return bool(np.any(new_k != colored)) or float(np.abs(new_c - color).max(initial=0)) > self.tol

@@ -18,8 +18,8 @@ import numpy as np
 
 from procgen import FieldSpec, InputError, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule
-from .states import LABEL_FIELD, TRANSPARENT, put_states, states
+from .cellrule import EXAMPLE_NET, CellRule, Next
+from .states import LABEL_FIELD, STATE_FIELD, TRANSPARENT, put_states, states
 
 POTENTIAL = "corrosion__potential"
 
@@ -80,13 +80,10 @@ class CorrosionCountdown(CellRule):
         net.add_field(POTENTIAL, p, at="cell", doc="material potential (NaN: never corroded)")
         put_states(net, states(net))
 
-    def step(self, state: State) -> bool:
-        net = self.network(state)
-        send, update = self.gates(net)
-        p = np.asarray(net[POTENTIAL], float)
-        gs = states(net)
-        new_p, new_gs = countdown(p, gs, send, update, net, self._max_p, self.dp)
-        net.add_field(POTENTIAL, new_p, at="cell", doc="material potential (NaN: never corroded)")
-        put_states(net, new_gs)
-        state.report(f"{self.cells}.transparent_fraction", float(np.mean(new_gs == TRANSPARENT)))
-        return not (np.array_equal(p, new_p, equal_nan=True) and np.array_equal(gs, new_gs))
+    def advance(self, net, send: np.ndarray, update: np.ndarray) -> Next:
+        new_p, new_gs = countdown(np.asarray(net[POTENTIAL], float), states(net), send, update,
+                                  net, self._max_p, self.dp)
+        return Next(update, {POTENTIAL: new_p, STATE_FIELD: new_gs})
+
+    def reports(self, net) -> dict[str, float]:
+        return {"transparent_fraction": float(np.mean(states(net) == TRANSPARENT))}

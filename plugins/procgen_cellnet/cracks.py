@@ -17,9 +17,9 @@ import numpy as np
 
 from procgen import FieldSpec, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule
-from .colour import colours, put_colours
-from .states import INFLUENCING, LABEL_FIELD, SLEEPING, put_states, states
+from .cellrule import EXAMPLE_NET, CellRule, Next
+from .colour import COLOR, COLORED, colours
+from .states import INFLUENCING, LABEL_FIELD, SLEEPING, STATE_FIELD, states
 
 CRACK = "crack__mask"
 
@@ -62,9 +62,8 @@ class CrackDerivative(CellRule):
         if len(self.color) != 3 or min(self.color) < 0 or max(self.color) > 1:
             raise ValueError("color must be [r, g, b] in 0..1")
 
-    def step(self, state: State) -> bool:
-        net = self.network(state)
-        send, update = self.gates(net)
+    def advance(self, net, send: np.ndarray, update: np.ndarray) -> Next:
+        """Writes only the cells it marks (``written`` = the new crack cells)."""
         label = np.asarray(net[LABEL_FIELD], np.int64)
         hit = crack_cells(net, label, send, update, self.width)
         old = np.asarray(net[CRACK], bool) if CRACK in net else np.zeros(net.n_cells, bool)
@@ -73,8 +72,13 @@ class CrackDerivative(CellRule):
         colored[hit] = True
         gs = states(net).copy()
         gs[hit] = SLEEPING if self.crack_state == "sleeping" else INFLUENCING
-        put_colours(net, color, colored)
-        put_states(net, gs)
-        net.add_field(CRACK, old | hit, at="cell", doc="crack cells")
-        state.report(f"{self.cells}.crack_fraction", float((old | hit).mean()))
-        return bool(np.any(hit & ~old))
+        return Next(hit, {COLOR: color, COLORED: colored, STATE_FIELD: gs, CRACK: old | hit})
+
+    def reports(self, net) -> dict[str, float]:
+        return {"crack_fraction": float(np.asarray(net[CRACK]).mean())}
+
+    def step(self, state: State) -> bool:
+        net = self.network(state)
+        nxt = self.advance(net, *self.gates(net))
+        self.commit(state, net, nxt)
+        return bool(nxt.written.any())

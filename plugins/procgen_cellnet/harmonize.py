@@ -10,7 +10,9 @@ F(0) = k (the maximum repulsion), F = 0 at the rest length cs and at ri, attract
 pair forces move each cell by dt * F (explicit Euler, the step the paper leaves open), kept in
 the cell's tangent plane; sleeping cells stay fixed.  With ``surface`` set, every moved cell
 is put back at its closest point on the source polygons after each step (the paper is silent:
-tangent moves alone lift cells off a curved surface).  Afterwards each cell keeps its lg best
+tangent moves alone lift cells off a curved surface) and takes the surface's normal there, face
+or interpolated as the network was seeded (section 3.3), so the next step's tangent plane and
+the splats follow the surface under the cell's new position.  Afterwards each cell keeps its lg best
 links (smallest |d - cs|; lg = 4/8, 6, 3 for square, triangle, hexagon, 6 for random),
 ``mutual`` keeping a link only if both ends keep it.
 """
@@ -21,12 +23,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from procgen import State, TriMesh, param
+from procgen import FieldSpec, State, TriMesh, param
 
 from .cellrule import CellRule
 from .projection import closest_on_mesh
 
-from .seeding import DEGREE
+from .seeding import DEGREE, surface_normals
 
 
 def force(d: np.ndarray, cs: float, ri: float, k: float) -> np.ndarray:
@@ -78,7 +80,14 @@ class NetworkHarmonization(CellRule):
     tol: float = param(1e-3, ge=0.0, units="cs", doc="stable when no cell moves more than this")
     tangent: bool = param(True, doc="move cells in their tangent planes only")
     surface: str | None = param(None, doc="TriMesh domain (the source polygons): put every moved "
-                                "cell back at its closest point on it after each step")
+                                "cell back at its closest point on it after each step, with the "
+                                "surface's normal there")
+
+    def field_specs(self) -> list[FieldSpec]:
+        """Re-projection also re-normals the moved cells."""
+        if self.surface is None:
+            return []
+        return [FieldSpec("cell__normal", domain=self.cells, at="cell", intent="out", doc="unit normal")]
 
     def domains_used(self) -> dict[str, str]:
         used = super().domains_used()
@@ -93,12 +102,19 @@ class NetworkHarmonization(CellRule):
         pos, links, disp = harmonize_step(net.positions, net.normals(), net.links, update, cs,
                                           net.radius, self.k, self.dmax * cs, self.dt * cs / self.k,
                                           self.tangent)
+        nrm = None
         if self.surface is not None:
             mesh = state.get(self.surface, TriMesh)
             moved = np.any(disp != 0, axis=1)
-            pos[moved] = closest_on_mesh(pos[moved], mesh.vertices, mesh.faces)[0]
+            q, face, _ = closest_on_mesh(pos[moved], mesh.vertices, mesh.faces)
+            pos[moved] = q
             disp = pos - net.positions
+            nrm = net.normals().copy()
+            nrm[moved] = surface_normals(mesh.vertices, mesh.faces, face, q, net.normal_mode,
+                                         mesh.vertex_normals if net.normal_mode == "vertex" else None)
         out = net.with_positions(pos)
+        if nrm is not None:
+            out.add_field("cell__normal", nrm, at="cell", doc="unit normal")
         if len(links) != net.n_links:
             out = out.with_links(links)
         state.add_domain(self.cells, out)

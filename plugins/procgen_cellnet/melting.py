@@ -16,7 +16,7 @@ import numpy as np
 
 from procgen import FieldSpec, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule
+from .cellrule import EXAMPLE_NET, CellRule, Next
 
 
 def melt_step(net, send: np.ndarray, update: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -53,12 +53,12 @@ class MeltingAverage(CellRule):
 
     tol: float = param(1e-9, ge=0.0, units="cs", doc="stable when no cell moves more than this")
 
+    def advance(self, net, send: np.ndarray, update: np.ndarray) -> Next:
+        pos, nrm = melt_step(net, send, update)
+        return Next(update, {"cell__normal": nrm}, pos)
+
     def step(self, state: State) -> bool:
         net = self.network(state)
-        send, update = self.gates(net)
-        pos, nrm = melt_step(net, send, update)
-        moved = float(np.abs(pos - net.positions).max(initial=0))
-        out = net.with_positions(pos)
-        out.add_field("cell__normal", nrm, at="cell", doc="unit normal")
-        state.add_domain(self.cells, out)
-        return moved > self.tol * net.cs
+        nxt = self.advance(net, *self.gates(net))
+        self.commit(state, net, nxt)
+        return float(np.abs(nxt.positions - net.positions).max(initial=0)) > self.tol * net.cs

@@ -47,7 +47,7 @@ class CellNetwork(Domain):
     locations: ClassVar[tuple[str, ...]] = ("cell",)
 
     def __init__(self, positions: Any, links: Any = None, *, cs: float, grid: str,
-                 radius: float = 0.0) -> None:
+                 radius: float = 0.0, normals: str = "face") -> None:
         super().__init__()
         p = np.asarray(positions, np.float64)
         if p.ndim != 2 or p.shape[1] != 3:
@@ -62,6 +62,8 @@ class CellNetwork(Domain):
         self.cs = float(cs)
         self.grid = str(grid)
         self.radius = float(radius)
+        #: how ``cell__normal`` follows the source surface: "face" or "vertex" (interpolated)
+        self.normal_mode = str(normals)
         self._boxes: dict[float, BoxIndex] = {}
         self._gated: dict[str, tuple[np.ndarray, sp.csr_matrix, np.ndarray]] = {}
 
@@ -180,7 +182,8 @@ class CellNetwork(Domain):
 
     # -- new networks ---------------------------------------------------------------------
     def _derived(self, positions: np.ndarray, links: np.ndarray) -> "CellNetwork":
-        out = CellNetwork(positions, links, cs=self.cs, grid=self.grid, radius=self.radius)
+        out = CellNetwork(positions, links, cs=self.cs, grid=self.grid, radius=self.radius,
+                          normals=self.normal_mode)
         out.copy_fields_from(self, {"cell": "cell", "domain": "domain"})
         return out
 
@@ -207,12 +210,12 @@ class CellNetwork(Domain):
         return {"positions": self.positions, "links": self.links}
 
     def topology_meta(self) -> dict[str, Any]:
-        return {"cs": self.cs, "grid": self.grid, "radius": self.radius}
+        return {"cs": self.cs, "grid": self.grid, "radius": self.radius, "normals": self.normal_mode}
 
     @classmethod
     def from_topology(cls, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> "CellNetwork":
         return cls(arrays["positions"], arrays["links"], cs=meta["cs"], grid=meta["grid"],
-                   radius=meta.get("radius", 0.0))
+                   radius=meta.get("radius", 0.0), normals=meta.get("normals", "face"))
 
 
 def tangent_frames(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

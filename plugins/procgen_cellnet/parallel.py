@@ -2,11 +2,14 @@
 
 Figure 1 shows eight effects "synchronised" on one object: every cell runs the behaviour of its
 material, and all of them read the same time-t buffer and write one t + 1 buffer (Table 1's
-double buffer, section 3.1).  ``cellnet.parallel`` does exactly that: each behaviour's step
-function computes its t + 1 arrays from the t arrays with its own cells as the receiving ones,
-and the results are merged by material, so a cell's new value never depends on a neighbour's
-new value - even where two behaviours write the same field (Life next to regrouping on
-``ca__alive``), unlike running the rules one after another.
+double buffer, section 3.1).  ``cellnet.parallel`` does exactly that: each behaviour (the
+``advance`` of its rule: colour spreading, melting, cracks, corrosion, watercolour, Young's
+activator/inhibitor, regrouping, majority, plus the gated Life / maze rule) computes its t + 1
+arrays from the t arrays with its own cells as the receiving ones, and the results are merged
+by material, so a cell's new value never depends on a neighbour's new value - even where two
+behaviours write the same field (Life next to regrouping on ``ca__alive``), unlike running the
+rules one after another.  The crack derivative writes only the cells it marks and wins there
+(a marble cell that becomes a vein takes the vein colour, not its diffused colour).
 
 Table 1's "Regrouping" row, read literally, is one-sided: "(p)? ((kp < k/2)? dead : alive)" -
 a live cell dies when fewer than half of its sending neighbours live, and nothing is ever born,
@@ -16,24 +19,28 @@ generic ``ca.majority`` also gives, here gated by the general states.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
-from procgen import FieldSpec, InputError, State, param
+from typing import Any
+
+from procgen import FieldSpec, InputError, RecipeError, State, param
 from procgen.ca.lifelike import parse_rule
 
-from .cellrule import EXAMPLE_NET, CellRule
-from .colour import COLOR, COLORED, colours, put_colours, spread
-from .melting import melt_step
+from .activation import ActivatorInhibitor
+from .cellrule import EXAMPLE_NET, CellRule, Next, changed_next, put_next
+from .colour import ColorSpreading
+from .corrosion import CorrosionCountdown
+from .cracks import CrackDerivative
+from .melting import MeltingAverage
 from .network import CellNetwork
 from .states import MATERIAL_FIELD
+from .watercolour import WatercolorFlow
 
 REGROUP_MODES = ("one_sided", "majority")
-#: behaviour -> the fields it writes (all on ``cell``)
-BEHAVIOURS = {"diffuse": (COLOR, COLORED), "melt": ("cell__normal",), "life": ("{field}",),
-              "regroup": ("{field}",), "majority": ("{field}",)}
 
 
 def regroup_step(net: CellNetwork, alive: np.ndarray, send: np.ndarray, update: np.ndarray,
@@ -88,117 +95,194 @@ class Regrouping(CellRule):
     mode: str = param("one_sided", choices=REGROUP_MODES,
                       doc="one_sided: Table 1 read literally (only deaths); majority: two-sided vote")
 
-    def step(self, state: State) -> bool:
-        net = self.network(state)
-        send, update = self.gates(net)
+    def advance(self, net: CellNetwork, send: np.ndarray, update: np.ndarray) -> Next:
         alive = bool_state(net, self.field, self.name)
-        new = regroup_step(net, alive, send, update, self.mode)
-        net.add_field(self.field, new, at="cell", doc=f"live cells ({self.mode} regrouping)")
-        return bool(np.any(new != alive))
+        return Next(update, {self.field: regroup_step(net, alive, send, update, self.mode)})
+
+
+@dataclass(kw_only=True)
+class GatedLife(CellRule):
+    """Table 1 "Life game" / "Maze" as a behaviour of ``cellnet.parallel`` (live *sending*
+    neighbours counted; the stand-alone generic rule is ``ca.life``)."""
+
+    name: ClassVar[str] = "cellnet.parallel.life"
+    fields: ClassVar[tuple[FieldSpec, ...]] = (
+        FieldSpec("{field}", domain="{cells}", at="cell", intent="out", dtype="bool",
+                  doc="live cells"),)
+    field: str = param("ca__alive", doc="bool cell field of live cells")
+    rule: str = param("B3/S23", doc="B/S string (B3/S234: maze)")
+    density: float = param(0.5, ge=0.0, le=1.0, doc="initial share of live cells (if the field is absent)")
+
+    def setup(self, state: State) -> None:
+        net = self.network(state)
+        if self.field not in net:
+            net.add_field(self.field, state.rng().random(net.n_cells) < self.density, at="cell",
+                          doc="live cells")
+
+    def validate(self) -> None:
+        try:
+            parse_rule(self.rule)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
+
+    def advance(self, net: CellNetwork, send: np.ndarray, update: np.ndarray) -> Next:
+        alive = bool_state(net, self.field, "cellnet.parallel")
+        return Next(update, {self.field: life_step_gated(net, alive, send, update, self.rule)})
+
+
+#: behaviour -> (rule whose parameters and ``advance`` it uses, default parameters)
+BEHAVIOURS: dict[str, tuple[type[CellRule], dict[str, Any]]] = {
+    "diffuse": (ColorSpreading, {}), "melt": (MeltingAverage, {}), "life": (GatedLife, {}),
+    "regroup": (Regrouping, {}), "majority": (Regrouping, {"mode": "majority"}),
+    "young": (ActivatorInhibitor, {}), "corrode": (CorrosionCountdown, {}),
+    "watercolor": (WatercolorFlow, {}), "crack": (CrackDerivative, {}),
+}
+#: merge order: later behaviours win on the cells both write (only the crack may share cells)
+ORDER = tuple(BEHAVIOURS)
+
+
+def kind(b: str) -> str:
+    """The behaviour of a key: ``crack/marble`` is a second ``crack`` with its own settings."""
+    return b.split("/", 1)[0]
 
 
 @dataclass(kw_only=True)
 class ParallelBehaviours(CellRule):
     """Several behaviours in one synchronous step, each on its materials (Figure 1).
 
-    ``behaviours`` maps a behaviour (diffuse, melt, life, regroup, majority) to the
-    ``cell__material`` ids that run it; every behaviour reads the same time-t state and the
-    t + 1 results are merged by material.  Behaviours writing the same field (life, regroup,
-    majority on ``field``) must have disjoint materials.  ``materials`` / ``labels`` narrow
-    every behaviour further.
+    ``behaviours`` maps a behaviour (diffuse, melt, life, regroup, majority, young, corrode,
+    watercolor, crack) to the ``cell__material`` ids that run it; ``settings`` gives a
+    behaviour the parameters of its rule (``cellnet.diffuse``, ``cellnet.melt``,
+    ``cellnet.regroup``, ``cellnet.young``, ``cellnet.corrode``, ``cellnet.watercolor``,
+    ``cellnet.crack``; life takes ``rule`` and ``field``), and ``steps`` how many steps it runs
+    (then its cells keep their state).  Every behaviour reads the same time-t state and the
+    t + 1 results are merged by material.  Behaviours writing the same field must have disjoint
+    materials, except the crack, which writes only the cells it marks and wins there.
+    ``materials`` / ``labels`` narrow every behaviour further.  A key ``kind/name``
+    (``crack/marble``) runs one more instance of a behaviour with its own settings and steps.
     """
 
     name: ClassVar[str] = "cellnet.parallel"
     default_iterations: ClassVar[int] = 20
-    fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec(MATERIAL_FIELD, domain="{cells}", at="cell", intent="in", doc="material id"),
-        FieldSpec(COLOR, domain="{cells}", at="cell", intent="inout", units="rgb", doc="RGB colour"),
-        FieldSpec(COLORED, domain="{cells}", at="cell", intent="inout", doc="colour is not null"),
-        FieldSpec("cell__normal", domain="{cells}", at="cell", intent="out", doc="unit normal"),
-        FieldSpec("{field}", domain="{cells}", at="cell", intent="inout", dtype="bool",
-                  doc="live cells (life / regroup / majority)"),
-    )
     example: ClassVar[tuple[dict, ...]] = (
         {"rule": "mesh.primitive", "params": {"shape": "plane", "size": 12.0, "subdivisions": 1}},
         {"rule": "cellnet.seed", "params": {"cs": 1.0, "grid": "square8"}},
         {"rule": "cellnet.link"},
+        {"rule": "ca.voronoi", "params": {"seeds": 4}, "iterations": 30},
         {"rule": "cellnet.seed_colors", "params": {"n_seeds": 5}},
         {"rule": "ca.life", "iterations": 1},
         {"rule": "cellnet.parallel", "iterations": 3,
-         "params": {"behaviours": {"diffuse": [0], "life": [0]}}},)
+         "params": {"behaviours": {"diffuse": [0], "life": [0], "crack": [0]},
+                    "settings": {"crack": {"crack_state": "influencing"}}}},)
 
     behaviours: dict[str, list[int]] = param({"diffuse": [0]},
-                                             doc="behaviour -> material ids: diffuse, melt, life, regroup, majority")
-    field: str = param("ca__alive", doc="bool cell field of life / regroup / majority")
-    rule: str = param("B3/S23", doc="B/S string of the life behaviour (B3/S234: maze)")
-    regroup_mode: str = param("one_sided", choices=REGROUP_MODES, doc="regroup behaviour's reading")
+                                             doc="behaviour -> material ids: " + ", ".join(BEHAVIOURS))
+    settings: dict[str, dict[str, Any]] = param({}, doc="behaviour -> parameters of its rule")
+    steps: dict[str, int] = param({}, doc="behaviour -> number of steps it runs (absent: every step)")
 
     def validate(self) -> None:
-        unknown = sorted(set(self.behaviours) - set(BEHAVIOURS))
+        unknown = sorted(b for b in {*self.behaviours, *self.settings, *self.steps}
+                         if kind(b) not in BEHAVIOURS)
         if unknown:
             raise ValueError(f"behaviours: unknown {unknown}; choose from {sorted(BEHAVIOURS)}")
         if not self.behaviours:
             raise ValueError("behaviours: name at least one behaviour")
-        owner: dict[int, str] = {}
-        for b in ("life", "regroup", "majority"):
-            for m in self.behaviours.get(b, []):
-                if m in owner:
-                    raise ValueError(f"behaviours: material {m} runs both {owner[m]} and {b}, "
-                                     f"which both write {self.field!r}")
-                owner[m] = b
+        extra = sorted((set(self.settings) | set(self.steps)) - set(self.behaviours))
+        if extra:
+            raise ValueError(f"settings / steps for {extra}, which no material runs")
+        for b, n in self.steps.items():
+            if n < 1:
+                raise ValueError(f"steps.{b}: {n} must be at least 1")
+        self._rules = {b: self.behaviour_rule(b)
+                       for b in sorted(self.behaviours, key=lambda b: (ORDER.index(kind(b)), b))}
+        owner: dict[tuple[str, int], str] = {}
+        for b, rule in self._rules.items():
+            if kind(b) == "crack":
+                continue
+            for name in written_fields(rule):
+                for m in self.behaviours[b]:
+                    if (name, m) in owner:
+                        raise ValueError(f"behaviours: material {m} runs both {owner[name, m]} and "
+                                         f"{b}, which both write {name!r}")
+                    owner[name, m] = b
+
+    def behaviour_rule(self, b: str) -> CellRule:
+        cls, defaults = BEHAVIOURS[kind(b)]
+        given = self.settings.get(b, {})
+        fixed = {k for k in ("cells", "materials", "labels") if k in given}
+        if fixed:
+            raise ValueError(f"settings.{b}: {sorted(fixed)} are set by cellnet.parallel itself")
+        params = {**defaults, **given, "cells": self.cells, "materials": self.behaviours[b]}
         try:
-            parse_rule(self.rule)
-        except InputError as exc:
+            return cls.from_params(params, f"settings.{b}")
+        except RecipeError as exc:
             raise ValueError(str(exc)) from None
 
     def field_specs(self) -> list[FieldSpec]:
-        """Only the fields of the behaviours named (a melt-only run needs no colours)."""
-        wanted = {MATERIAL_FIELD}
-        for b in self.behaviours:
-            wanted |= {f.format(field=self.field) for f in BEHAVIOURS[b]}
-        return [s for s in super().field_specs() if s.name in wanted]
+        """Every behaviour's fields (written ones as inout: a cell a behaviour does not own keeps
+        its time-t value), and the material."""
+        specs = {MATERIAL_FIELD: FieldSpec(MATERIAL_FIELD, domain=self.cells, at="cell",
+                                           intent="in", doc="material id")}
+        for rule in self._rules.values():
+            for s in rule.field_specs():
+                if s.name in specs and specs[s.name].intent != s.intent:
+                    s = dataclasses.replace(s, intent="inout")
+                specs[s.name] = s
+        return list(specs.values())
+
+    def setup(self, state: State) -> None:
+        self._t = 0
+        saved = state.rule_name
+        for rule in self._rules.values():
+            state.rule_name = rule.name          # each behaviour draws from its own stream
+            try:
+                rule.setup(state)
+            finally:
+                state.rule_name = saved
 
     def step(self, state: State) -> bool:
         net = self.network(state)
-        out, changed = parallel_step(net, self.behaviours, *self.gates(net), field=self.field,
-                                     rule=self.rule, regroup_mode=self.regroup_mode)
-        state.add_domain(self.cells, out)
-        return changed
+        running = {b: r for b, r in self._rules.items() if self._t < self.steps.get(b, self._t + 1)}
+        self._t += 1
+        if not running:
+            return False
+        out, moved = parallel_step(net, running, *self.gates(net))
+        if out is not net:
+            state.add_domain(self.cells, out)
+        for rule in running.values():
+            for key, value in rule.reports(out).items():
+                state.report(f"{self.cells}.{key}", value)
+        return moved
 
 
-def parallel_step(net: CellNetwork, behaviours: dict[str, list[int]], send: np.ndarray,
-                  update: np.ndarray, *, field: str = "ca__alive", rule: str = "B3/S23",
-                  regroup_mode: str = "one_sided") -> tuple[CellNetwork, bool]:
-    """The network at t + 1: every behaviour from the same time-t arrays, merged by material."""
+def written_fields(rule: CellRule) -> set[str]:
+    return {s.name for s in rule.field_specs() if s.intent in ("out", "inout")}
+
+
+def parallel_step(net: CellNetwork, rules: dict[str, CellRule], send: np.ndarray,
+                  update: np.ndarray) -> tuple[CellNetwork, bool]:
+    """The network at t + 1: every behaviour from the same time-t network, merged by material.
+
+    ``rules`` maps a behaviour to its rule (``materials`` = the behaviour's materials), in merge
+    order; each ``advance`` sees its own selected receiving cells as the updating ones.
+    """
     if MATERIAL_FIELD not in net:
         raise InputError("cellnet.parallel: the network has no cell__material")
     material = np.asarray(net[MATERIAL_FIELD])
-    own = {b: update & np.isin(material, m) for b, m in behaviours.items()}
-    changed = False
-    new_state = None
-    if any(b in own for b in ("life", "regroup", "majority")):
-        alive = bool_state(net, field, "cellnet.parallel")
-        new_state = alive.copy()
-        for b in ("life", "regroup", "majority"):
-            if b in own:
-                nxt = (life_step_gated(net, alive, send, own[b], rule) if b == "life" else
-                       regroup_step(net, alive, send, own[b],
-                                    regroup_mode if b == "regroup" else "majority"))
-                new_state[own[b]] = nxt[own[b]]
-        changed |= bool(np.any(new_state != alive))
-    new_colour = None
-    if "diffuse" in own:
-        color, colored = colours(net)
-        new_colour = spread(net, color, colored, send, own["diffuse"])
-        changed |= bool(np.any(new_colour[1] != colored)) or bool(np.any(new_colour[0] != color))
-    out = net
-    if "melt" in own:
-        pos, nrm = melt_step(net, send, own["melt"])
-        changed |= bool(np.any(pos != net.positions))
-        out = net.with_positions(pos)
-        out.add_field("cell__normal", nrm, at="cell", doc="unit normal")
-    if new_state is not None:
-        out.add_field(field, new_state, at="cell", doc="live cells")
-    if new_colour is not None:
-        put_colours(out, *new_colour)
-    return out, changed
+    merged = Next(np.zeros(net.n_cells, bool))
+    docs: dict[str, str] = {}
+    for rule in rules.values():
+        own = update & np.isin(material, rule.materials)
+        nxt = rule.advance(net, send, own)
+        w = nxt.written
+        merged.written |= w
+        docs.update({s.name: s.doc for s in rule.field_specs()})
+        for name, a in nxt.fields.items():
+            if name not in merged.fields:
+                merged.fields[name] = np.array(net[name]) if name in net else a.copy()
+            merged.fields[name][w] = a[w]
+        if nxt.positions is not None:
+            merged.positions = net.positions.copy() if merged.positions is None else merged.positions
+            merged.positions[w] = nxt.positions[w]
+    moved = changed_next(net, merged)
+    return put_next(net, merged, docs), moved

@@ -281,19 +281,24 @@ def seed_cells(vertices: np.ndarray, faces: np.ndarray, grid: str, cs: float, *,
         pos = origin[r] + uv[:, :1] * u[r] + uv[:, 1:] * w[r]
         keep = merge_close(pos, 0.25 * cs, r)
         pos, face = snap(pos[keep], extent), face[keep]
-    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    nrm = surface_normals(v, f, face, pos, normals, vertex_normals)
+    return Seeded(pos, nrm, face, region[face])
+
+
+def surface_normals(v: np.ndarray, f: np.ndarray, face: np.ndarray, pos: np.ndarray,
+                    normals: str, vertex_normals: np.ndarray | None) -> np.ndarray:
+    """Unit normals of the surface at ``pos`` on faces ``face``: the face's own ("face") or the
+    vertex normals interpolated barycentrically ("vertex"; the face's where they cancel)."""
+    tri = v[f[face]]
+    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     fn /= np.linalg.norm(fn, axis=1, keepdims=True)
     if normals == "face":
-        nrm = fn[face]
-    elif normals == "vertex":
-        if vertex_normals is None:
-            raise InputError("cellnet.seed: interpolated normals need the mesh's vertex normals")
-        vn = vertex_normals
-        bary = _barycentric(pos, v[f[face]])
-        nrm = np.einsum("nk,nkj->nj", bary, vn[f[face]])
-        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
-        nrm = np.where(ln > 1e-12, nrm / np.maximum(ln, 1e-300), fn[face])
-    else:
-        raise InputError(f"cellnet.seed: normals {normals!r} is not 'face' or 'vertex'")
-    return Seeded(pos, nrm, face, region[face])
+        return fn
+    if normals != "vertex":
+        raise InputError(f"cellnet: normals {normals!r} is not 'face' or 'vertex'")
+    if vertex_normals is None:
+        raise InputError("cellnet: interpolated normals need the mesh's vertex normals")
+    nrm = np.einsum("nk,nkj->nj", _barycentric(pos, tri), np.asarray(vertex_normals)[f[face]])
+    ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+    return np.where(ln > 1e-12, nrm / np.maximum(ln, 1e-300), fn)
 

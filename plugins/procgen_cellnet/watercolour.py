@@ -19,7 +19,7 @@ import numpy as np
 
 from procgen import FieldSpec, InputError, State, param
 
-from .cellrule import EXAMPLE_NET, CellRule
+from .cellrule import EXAMPLE_NET, CellRule, Next
 from .colour import COLOR, colours, put_colours
 from .network import CellNetwork
 
@@ -125,35 +125,30 @@ class WatercolorFlow(CellRule):
     p_sat: float = param(0.5, gt=0.0, doc="saturation water level (Figure 13(a) blue)")
     mix: float = param(0.5, ge=0.0, le=1.0, doc="pigment mobility")
 
-    def step(self, state: State) -> bool:
-        net = self.network(state)
-        send, update = self.gates(net)
+    def advance(self, net, send: np.ndarray, update: np.ndarray) -> Next:
+        """One flow step; the step that dries the last wet cell also settles the layer: its
+        pigment glazes ``surface__color`` (multiplied in) and the pigment map is cleared."""
         p = np.asarray(net[WATER], float)
         pig = np.asarray(net[PIGMENT], np.float32)
         layer = np.asarray(net[LAYER])
         has = layer > 0
         new_p, new_pig, new_has = flow_step(net, p, pig, has, send, update, self.dp, self.p_sat,
                                             self.mix)
-        net.add_field(WATER, new_p, at="cell", doc="water amount p")
-        net.add_field(PIGMENT, new_pig, at="cell", doc="pigment carried (RGB)")
-        net.add_field(LAYER, np.where(new_has & ~has, layer.max(initial=1), layer).astype(np.int8),
-                      at="cell", doc="last layer that wetted the cell")
-        wet = bool(np.any(new_p > 0))
-        if not wet:
-            self.settle(net)
-        return wet or bool(np.any(p > 0))
+        new_layer = np.where(new_has & ~has, layer.max(initial=1), layer).astype(np.int8)
+        if np.any(new_p > 0) or not np.any(p > 0):
+            return Next(update, {WATER: new_p, PIGMENT: new_pig, LAYER: new_layer})
+        wetted = new_layer > 0
+        color, _ = colours(net)
+        glazed = np.where(wetted[:, None], color * new_pig, color)
+        return Next(update | wetted, {WATER: new_p, COLOR: glazed,
+                                      PIGMENT: np.ones((net.n_cells, 3), np.float32),
+                                      LAYER: np.zeros(net.n_cells, np.int8)})
 
-    def settle(self, net) -> None:
-        """Glaze the dried layer onto the paper (multiply) and clear its pigment."""
-        layer = np.asarray(net[LAYER])
-        color, colored = colours(net)
-        pig = np.asarray(net[PIGMENT], np.float32)
-        wetted = layer > 0
-        put_colours(net, np.where(wetted[:, None], color * pig, color), colored)
-        net.add_field(LAYER, np.zeros(net.n_cells, np.int8), at="cell",
-                      doc="last layer that wetted the cell")
-        net.add_field(PIGMENT, np.ones((net.n_cells, 3), np.float32), at="cell",
-                      doc="pigment carried (RGB)")
+    def step(self, state: State) -> bool:
+        net = self.network(state)
+        was_wet = bool(np.any(np.asarray(net[WATER]) > 0))
+        self.commit(state, net, self.advance(net, *self.gates(net)))
+        return was_wet
 
 
 def humidity_rgb(p: np.ndarray, p_sat: float) -> np.ndarray:
