@@ -6,7 +6,7 @@ anchored at the origin, and each piece is a pure function of (seed, tile index),
 tessellation does not depend on the order in which growth asks for tiles:
 
 * **Points.** Tiles are coloured in four phases by index parity (phase = i mod 2 + 2 (j mod 2));
-  a tile is sampled (maximal; :mod:`.tile_poisson`, compiled) with the already-final samples of its
+  a tile is sampled (maximal; :mod:`.tile_poisson`, the same samples with or without numba) with the already-final samples of its
   lower-phase neighbours as fixed points, and a random stream spawned from (seed, i, j).
   Same-phase tiles never touch, so every pair of samples is >= r apart and every location is
   within r of a sample across borders (the parallel phase-group scheme of Wei 2008).
@@ -88,6 +88,7 @@ class TiledTopology(Topology):
         self._owned: dict[Tile, np.ndarray] = {}   # tile -> triangles it owns
         self._owned_keys = np.zeros(0, np.int64)
         self.batches = 0
+        self.accelerate: bool | None = None   # the tile sampler's path (procgen.accel; same samples)
 
     # -- points ------------------------------------------------------------------------------
     def tile_points(self, t: Tile) -> np.ndarray:
@@ -102,7 +103,8 @@ class TiledTopology(Topology):
             fixed = self.points[dep_ids]
         rng = np.random.default_rng(np.random.SeedSequence(self.seed.entropy,
                                                            spawn_key=(*self.seed.spawn_key, _zigzag(t[0]), _zigzag(t[1]))))
-        new = sample_tile(rng, (t[0] * self.tile, t[1] * self.tile), self.tile, self.radius, fixed)
+        new = sample_tile(rng, (t[0] * self.tile, t[1] * self.tile), self.tile, self.radius, fixed,
+                          self.accelerate)
         ids = np.arange(len(self.points), len(self.points) + len(new))
         self.points = np.concatenate([self.points, new])
         self.vtile = np.concatenate([self.vtile, np.tile(np.array(t, np.int64), (len(new), 1))])
