@@ -177,14 +177,17 @@ class CloudGrowth:
             raise AssertionError("chain must start at a curve boundary")
         starts = np.flatnonzero(start_mask)
         rid = np.cumsum(start_mask) - 1
-        ends = np.append(starts[1:], n) - 1
+        bound = np.empty(len(starts) + 1, np.int64)
+        bound[:-1], bound[-1] = starts, n
         inner = seg.copy()
-        inner[ends] = 0.0                              # gap segments belong to no curve
+        inner[bound[1:] - 1] = 0.0                     # gap segments belong to no curve
         length = np.bincount(rid, inner, minlength=len(starts))
-        cs = np.concatenate([[0.0], np.cumsum(inner)])
+        cs = np.empty(n + 1)                           # cs[i]: curve length before snaxel i
+        cs[0] = 0.0
+        np.cumsum(inner, out=cs[1:])
         arc = cs[:-1] - cs[starts][rid]
-        cg = np.concatenate([[0.0], np.cumsum(seg)])
-        return Runs(starts, rid, np.diff(np.append(starts, n)), c[starts], length, arc, cg[:-1], float(cg[-1]))
+        np.cumsum(seg, out=cs[1:])                     # now along the whole chain, gaps included
+        return Runs(starts, rid, np.diff(bound), c[starts], length, arc, cs[:-1], float(cs[-1]))
 
     def normalise(self) -> None:
         """Keep curves contiguous (fragments left by hole discards become curves of their own)
@@ -200,7 +203,7 @@ class CloudGrowth:
             c = snake.ints[:, CURVE]
             starts = starts - starts[0]
         labels = c[starts]
-        if len(np.unique(labels)) != len(labels):   # rare: a curve cut in two by a discarded hole
+        if np.bincount(labels).max() > 1:   # rare: a curve cut in two by a discarded hole
             seen: set[int] = set()
             ends = np.append(starts[1:], len(c))
             for s0, e0, lab in zip(starts, ends, labels):

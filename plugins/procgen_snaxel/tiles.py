@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from procgen.domains.trimesh_domain import edge_table
-
 from .tile_poisson import sample_tile
 from .topology import Topology, angular_rings
 
@@ -176,11 +174,11 @@ class TiledTopology(Topology):
         tiles = {_unkey(k) for k in np.unique(self._corner_keys(cand))}
         faces = np.concatenate([self._owned[t] for t in sorted(tiles)])
         faces = faces[want[faces].any(axis=1)]
-        edges = edge_table(faces)[0]
-        src = np.concatenate([edges[:, 0], edges[:, 1]])
-        dst = np.concatenate([edges[:, 1], edges[:, 0]])
+        # directed edges out of the wanted vertices, each once (an inner edge lies in two faces)
+        src, dst = np.repeat(faces.ravel(), 2), faces[:, [1, 2, 0, 2, 0, 1]].ravel()
         keep = want[src]
-        src, dst = angular_rings(self.points, src[keep], dst[keep])
+        key = np.unique(src[keep] * n + dst[keep])
+        src, dst = angular_rings(self.points, key // n, key % n)
         vs = np.sort(cand)                            # src is sorted by vertex id
         count = np.bincount(src, minlength=n)[vs]
         start = len(self.ring) + np.concatenate([[0], np.cumsum(count)[:-1]])
@@ -188,7 +186,8 @@ class TiledTopology(Topology):
         self.ring_hi[vs] = start + count
         self.ring = np.concatenate([self.ring, dst])
         if self.mean_edge == 0.0:
-            self.mean_edge = float(np.hypot(*(self.points[edges[:, 1]] - self.points[edges[:, 0]]).T).mean())
+            e = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1) @ np.array([n, 1]))
+            self.mean_edge = float(np.hypot(*(self.points[e % n] - self.points[e // n]).T).mean())
         self.batches += 1
 
     def ensure(self, vertices: np.ndarray) -> bool:
