@@ -79,9 +79,11 @@ class CloudGrowth:
         self.snake.head_on = cfg.merge == "head_on"
         # independent streams: curve speeds, split points, cluster choices (digest property 22)
         self.rng_speed, self.rng_split, self.rng_cluster = rng.spawn(3)
+        self.rng_jitter = rng.spawn(1)[0]    # limit_jitter's draws (none at 0: thesis streams unchanged)
         self.vb = np.zeros(0)
         self.vs = np.zeros(0)
         self.cluster_of = np.zeros(0, np.int64)
+        self.jitter = np.ones(0)           # per curve: the factor on its table limit (limit_jitter)
         self.n_curves = 0
         self.marked = marked
         self.guide = guide     # points (k, 2) -> attraction (higher = preferred) for seed_policy field / sketch
@@ -151,10 +153,14 @@ class CloudGrowth:
             self.vb = np.resize(self.vb, cap)
             self.vs = np.resize(self.vs, cap)
             self.cluster_of = np.resize(self.cluster_of, cap)
+            self.jitter = np.resize(self.jitter, cap)
         if copy_of is None:   # A8: independent draws for the base value and the shape speed
             self.vb[cid], self.vs[cid] = self.rng_speed.uniform(self.cfg.v_min, self.cfg.v_max, 2)
+            j = self.cfg.limit_jitter
+            self.jitter[cid] = np.exp(self.rng_jitter.uniform(-j, j)) if j > 0 else 1.0
         else:
             self.vb[cid], self.vs[cid] = self.vb[copy_of], self.vs[copy_of]
+            self.jitter[cid] = self.jitter[copy_of]
         self.cluster_of[cid] = cluster
         self.n_curves += 1
         return cid
@@ -232,6 +238,8 @@ class CloudGrowth:
     def _split_long(self, runs: Runs, t: np.ndarray) -> bool:
         active = self.cluster_of[runs.curve] == self.active
         limit = self.limits.limit(np.maximum.reduceat(t, runs.starts))
+        if self.cfg.limit_jitter > 0:
+            limit = limit * self.jitter[runs.curve]
         changed = False
         for r in np.flatnonzero(active & (runs.length > limit) & (runs.count >= 4)):   # per split event
             s0 = int(runs.starts[r])
@@ -270,7 +278,7 @@ class CloudGrowth:
             a, b = work.pop()
             loc = base[a - s0:b - s0] - base[a - s0]
             length = float(loc[-1])
-            if length <= float(self.limits.limit(t[a:b].max())) or b - a < 4:
+            if length <= float(self.limits.limit(t[a:b].max())) * self.jitter[snake.ints[a, CURVE]] or b - a < 4:
                 continue
             # piece 1 = a..i, piece 2 = i+1..b-1, >= 2 snaxels and >= c_min long each (A7)
             i = np.arange(1, b - a - 2)
