@@ -131,6 +131,10 @@ class GrowthRule(GrowthParams):
             raise InputError(f"{self.name}: {exc}") from None
         if growth.snapshot_every == 0:
             growth.snapshot_every = max(1, int(round(4.0 * topo.mean_edge / (cfg.v_max * cfg.dt))))
+        if isinstance(topo, TiledTopology) and tile_sampler(topo.accelerate) == "numba":
+            # numba is loaded for the tiles anyway, so the events take their compiled path (the
+            # same chains, procgen_snaxel.events_numba) at any chain length, not from MIN_SNAXELS
+            growth.snake.accelerate = True
         return growth
 
 

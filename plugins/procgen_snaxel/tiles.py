@@ -48,6 +48,17 @@ def _unkey(k: int) -> Tile:
     return ((k - (j + (1 << 31))) >> 32, j)
 
 
+def _extend(buf: np.ndarray, used: int, new: np.ndarray) -> np.ndarray:
+    """``buf`` holding ``new`` after its first ``used`` rows, reallocated (doubled) when full: the
+    tessellation grows by appending, and copying it whole per tile cost O(N) each time."""
+    if used + len(new) > len(buf):
+        bigger = np.empty((max(2 * len(buf), used + len(new), 1024),) + buf.shape[1:], buf.dtype)
+        bigger[:used] = buf[:used]
+        buf = bigger
+    buf[used:used + len(new)] = new
+    return buf
+
+
 def _phase(t: Tile) -> int:
     return (t[0] & 1) + 2 * (t[1] & 1)
 
@@ -82,6 +93,7 @@ class TiledTopology(Topology):
         self.tile = float(tile)
         self.seed = seed
         self.vtile = np.zeros((0, 2), np.int64)   # tile index of every vertex
+        self._bufs = {"points": np.zeros((0, 2)), "vtile": self.vtile, "ring": self.ring}   # points etc. are views
         self._points: dict[Tile, np.ndarray] = {}  # tile -> vertex ids (sampling order)
         self._owned: dict[Tile, np.ndarray] = {}   # tile -> triangles it owns
         self._owned_keys = np.zeros(0, np.int64)
@@ -104,10 +116,15 @@ class TiledTopology(Topology):
         new = sample_tile(rng, (t[0] * self.tile, t[1] * self.tile), self.tile, self.radius, fixed,
                           self.accelerate)
         ids = np.arange(len(self.points), len(self.points) + len(new))
-        self.points = np.concatenate([self.points, new])
-        self.vtile = np.concatenate([self.vtile, np.tile(np.array(t, np.int64), (len(new), 1))])
+        self._append("points", new)
+        self._append("vtile", np.tile(np.array(t, np.int64), (len(new), 1)))
         self._points[t] = ids
         return ids
+
+    def _append(self, name: str, new: np.ndarray) -> None:
+        used = len(getattr(self, name))
+        self._bufs[name] = _extend(self._bufs[name], used, new)
+        setattr(self, name, self._bufs[name][:used + len(new)])
 
     # -- triangles ---------------------------------------------------------------------------
     def _own(self, tiles: list[Tile]) -> None:
@@ -184,7 +201,7 @@ class TiledTopology(Topology):
         start = len(self.ring) + np.concatenate([[0], np.cumsum(count)[:-1]])
         self.ring_lo[vs] = start
         self.ring_hi[vs] = start + count
-        self.ring = np.concatenate([self.ring, dst])
+        self._append("ring", dst)
         if self.mean_edge == 0.0:
             e = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1) @ np.array([n, 1]))
             self.mean_edge = float(np.hypot(*(self.points[e % n] - self.points[e // n]).T).mean())
