@@ -16,22 +16,8 @@ from procgen import InputError, Polylines
 from procgen.builtin.lines import chaikin
 from procgen.exchange.svg import finish, fmt_number, path_data, vertical_gradient
 
-from .svgdoc import Page
-
-
-def _need(domain: Any, what: str, field: str | None = None) -> Polylines:
-    if not isinstance(domain, Polylines):
-        raise InputError(f"{what}: expected the Polylines a snaxel rule made, got {domain.kind}")
-    if field is not None and field not in domain:
-        raise InputError(f"{what}: domain has no field {field!r} (export the snaxel.grow/cloudscape output)")
-    return domain
-
-
-def _box(domain: Polylines) -> tuple[float, float, float, float]:
-    if domain.bounds is not None:
-        return domain.bounds
-    (x0, y0), (x1, y1) = domain.points.min(0), domain.points.max(0)
-    return (float(x0), float(x1), float(y0), float(y1))
+from .cloudscape_svg import cloudscape_svg
+from .svgdoc import Page, curve_pieces, domain_box, need
 
 
 def curve_colour(cid: int) -> str:
@@ -39,13 +25,6 @@ def curve_colour(cid: int) -> str:
     h = (int(cid) * 0.6180339887) % 1.0
     r, g, b = colorsys.hsv_to_rgb(h, 0.75, 0.85)
     return "#%02x%02x%02x" % (int(r * 255), int(g * 255), int(b * 255))
-
-
-def _mix(a: str, b: str, t: float) -> str:
-    ca = np.array([int(a[i:i + 2], 16) for i in (1, 3, 5)], float)
-    cb = np.array([int(b[i:i + 2], 16) for i in (1, 3, 5)], float)
-    c = np.clip(np.round((1 - t) * ca + t * cb), 0, 255).astype(int)
-    return "#%02x%02x%02x" % tuple(c)
 
 
 # -- the cloud itself ---------------------------------------------------------------------------
@@ -57,10 +36,10 @@ def cloud_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, fi
     Smoothing (Chaikin passes) is off by default because it softens the sharp detail the thesis
     claims over earlier systems. The page is the domain, or the cloud's own box (plus 4%) with
     ``crop``; ``gradient`` lists colours from top to bottom."""
-    dom = _need(domain, "cloud_svg")
+    dom = need(domain, "cloud_svg")
     if not 0 <= int(smooth) <= 6:
         raise InputError(f"cloud_svg: smooth = {smooth} passes, expected 0..6")
-    page = Page(_crop_box(dom, 0.04) if crop else _box(dom), width, units)
+    page = Page(_crop_box(dom, 0.04) if crop else domain_box(dom), width, units)
     dwg = page.dwg
     page.sky(background)
     fill_ref = fill
@@ -83,22 +62,8 @@ def _crop_box(dom: Polylines, pad: float) -> tuple[float, float, float, float]:
     """The lines' bounding box grown by ``pad`` of its size, kept inside the domain."""
     (x0, y0), (x1, y1) = dom.points.min(0), dom.points.max(0)
     size = max(x1 - x0, y1 - y0)
-    bx0, bx1, by0, by1 = _box(dom)
+    bx0, bx1, by0, by1 = domain_box(dom)
     return (max(bx0, x0 - pad * size), min(bx1, x1 + pad * size), max(by0, y0 - pad * size), min(by1, y1 + pad * size))
-
-
-def _curve_pieces(pts: np.ndarray, cv: np.ndarray) -> list[tuple[int, np.ndarray]]:
-    """(curve id, points) of each curve of a closed contour, each including the joint to the next."""
-    n = len(pts)
-    starts = np.flatnonzero(cv != np.roll(cv, 1))
-    if len(starts) == 0:
-        starts = np.array([0])
-    out = []
-    for k, s in enumerate(starts):
-        e = starts[(k + 1) % len(starts)]
-        idx = np.arange(s, (e if e > s else e + n) + 1) % n
-        out.append((int(cv[s]), pts[idx]))
-    return out
 
 
 def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 800,
@@ -106,8 +71,8 @@ def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
                 stroke_width: float = 0.9, crop: bool = True, title: str = "") -> bytes:
     """Earlier snake positions as nested contours, each curve in its own colour (Figs 3.11-3.22),
     one layer per contour; ``crop`` frames the cloud instead of the whole domain."""
-    dom = _need(domain, "cloud_process_svg", "snaxel__curve")
-    page = Page(_crop_box(dom, 0.04) if crop else _box(dom), width, units)
+    dom = need(domain, "cloud_process_svg", "snaxel__curve")
+    page = Page(_crop_box(dom, 0.04) if crop else domain_box(dom), width, units)
     dwg = page.dwg
     page.sky(background)
     curve = dom["snaxel__curve"]
@@ -120,7 +85,7 @@ def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
         if b - a < 2:
             continue
         layer = page.layer(f"contour step {int(steps[i])}")
-        for cid, piece in _curve_pieces(dom.points[a:b], curve[a:b]):
+        for cid, piece in curve_pieces(dom.points[a:b], curve[a:b]):
             layer.add(dwg.path(d=page.d(piece, False), fill="none", stroke=curve_colour(cid),
                                stroke_width=sw, stroke_linejoin="round"))
     return finish(dwg, provenance, title or "snaxel growth process")
@@ -130,9 +95,9 @@ def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
 def view_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 800,
              units: str = "px", background: str | None = "#ffffff", title: str = "") -> bytes:
     """Tessellation (grey edges, blue vertices), snake segments red, snaxels yellow (Figure 1.2)."""
-    dom = _need(domain, "cloud_view_svg", "view__kind")
+    dom = need(domain, "cloud_view_svg", "view__kind")
     kind = dom["view__kind"]
-    box = _box(dom)
+    box = domain_box(dom)
     page = Page(box, width, units)
     dwg, px = page.dwg, page.unit
     page.sky(background)
@@ -165,11 +130,11 @@ def anim_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
              units: str = "px", background: str | None = "#8fb8e0", fill: str = "#ffffff",
              frame_seconds: float = 0.12, hold_seconds: float = 1.5, crop: bool = True, title: str = "") -> bytes:
     """The growth as an animated SVG (SMIL, discrete frames); browsers play it in a loop."""
-    dom = _need(domain, "cloud_anim_svg")
+    dom = need(domain, "cloud_anim_svg")
     n = dom.n_lines
     if n == 0:
         raise InputError("cloud_anim_svg: the history has no contour")
-    page = Page(_crop_box(dom, 0.06) if crop else _box(dom), width, units)
+    page = Page(_crop_box(dom, 0.06) if crop else domain_box(dom), width, units)
     dwg = page.dwg
     page.sky(background)
     group = page.layer("growth")
@@ -210,112 +175,16 @@ def anim_gif(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
              background: str = "#8fb8e0", fill: str = "#ffffff", frame_ms: int = 100, hold_ms: int = 1500,
              crop: bool = True) -> bytes:
     """The growth as a looping GIF, one frame per recorded contour (framed on the cloud)."""
-    dom = _need(domain, "cloud_gif")
+    dom = need(domain, "cloud_gif")
     if dom.n_lines == 0:
         raise InputError("cloud_gif: the history has no contour")
-    box = _crop_box(dom, 0.06) if crop else _box(dom)
+    box = _crop_box(dom, 0.06) if crop else domain_box(dom)
     frames = [rasterise([dom.line(i)], box, width, background, fill).quantize(colors=16, dither=0)
               for i in range(dom.n_lines)]
     buf = io.BytesIO()
     durations = [frame_ms] * (len(frames) - 1) + [hold_ms]
     frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=durations, loop=0)
     return buf.getvalue()
-
-
-# -- cloudscape ----------------------------------------------------------------------------------
-def _lobes(pts: np.ndarray, cv: np.ndarray, min_len: float) -> list[tuple[np.ndarray, float]]:
-    """(centre, radius) of the bulge each curve draws (thesis section 3.4: one rounded bulge per
-    curve), for curves at least ``min_len`` long: the centroid of the arc and its chord, with
-    the radius reaching the arc's farthest point."""
-    out = []
-    for _, arc in _curve_pieces(pts, cv):
-        seg = np.hypot(*np.diff(arc, axis=0).T).sum() if len(arc) > 1 else 0.0
-        if seg < min_len:
-            continue
-        c = arc.mean(0)
-        out.append((c, float(np.hypot(*(arc - c).T).max())))
-    return out
-
-
-def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 1000,
-                   units: str = "px", sky: bool = True, sky_top: str = "#3f78c0", sky_horizon: str = "#c9def2",
-                   lit: str = "#ffffff", shade: str = "#9aa6b8", sun_x: float = -0.55, sun_y: float = 0.85,
-                   lobe_min: float = 0.04, perspective: float = 0.45, flatten: float = 0.35,
-                   soft: float = 0.0, horizon: float | None = 0.08, base_level: float = 0.42,
-                   title: str = "") -> bytes:
-    """Clouds as an illustrator draws them, back to front, one Inkscape layer per cloud.
-
-    Each cloud: its silhouette in the shade colour, then one disc per lobe (each snaxel curve is
-    a bulge, thesis section 3.4) filled with a radial gradient whose bright focus leans towards
-    the sun (``sun_x``, ``sun_y``, y up), all clipped to the silhouette, then a grey band along
-    the base (the shadowed underside of a cumulus). Far clouds (low cloud__depth) are drawn
-    smaller and flatter about their base (``perspective``, ``flatten``) and mixed towards the
-    horizon colour (aerial perspective). With ``horizon`` (a fraction of the page height from the
-    bottom; None: bases stay where they grew) every base is moved onto one condensation plane seen
-    in perspective: a cloud drawn at scale s has its base at horizon + s (base_level - horizon),
-    so the nearest clouds float highest and the far ones line up towards the horizon, as
-    fair-weather cumulus do. ``soft`` > 0 blurs the edges by that fraction of a cloud's height;
-    ``sky`` = false leaves the background empty.
-    """
-    if horizon is not None and not 0.0 <= horizon < base_level <= 1.0:
-        raise InputError(f"cloudscape_svg: need 0 <= horizon < base_level <= 1, got {horizon}, {base_level}")
-    dom = _need(domain, "cloudscape_svg", "cloud__depth")
-    norm = float(np.hypot(sun_x, sun_y))
-    if norm == 0:
-        raise InputError("cloudscape_svg: sun_x and sun_y are both 0 (no sun direction)")
-    sx, sy = sun_x / norm, sun_y / norm
-    page = Page(_box(dom), width, units)
-    dwg = page.dwg
-    if sky:
-        grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id="sky")
-        grad.add_stop_color(0, sky_top)
-        grad.add_stop_color(1, sky_horizon)
-        dwg.defs.add(grad)
-        page.layer("sky").add(dwg.rect(insert=(0, 0), size=(fmt_number(page.w), fmt_number(page.h)), fill="url(#sky)"))
-    depth = dom["cloud__depth"]
-    curve = dom["snaxel__curve"] if "snaxel__curve" in dom else np.zeros(len(dom.points), np.int64)
-    n = max(int(depth.max()) + 1, 1)
-    for i in np.argsort(depth, kind="stable"):
-        far = 1.0 - (float(depth[i]) / (n - 1) if n > 1 else 1.0)
-        a, b = dom.offsets[i], dom.offsets[i + 1]
-        pts, cv = dom.points[a:b], curve[a:b]
-        (qx, qy) = page.xy(np.array([[pts[:, 0].mean(), pts[:, 1].min()]]))[0]
-        height = float(np.ptp(pts[:, 1]))
-        sc = 1.0 - perspective * far
-        top = _mix(lit, sky_horizon, 0.45 * far)
-        bottom = _mix(shade, sky_horizon, 0.55 * far)
-        mid = _mix(top, bottom, 0.45)
-        ty = qy if horizon is None else page.h * (1.0 - horizon - sc * (base_level - horizon))
-        tf = (f"translate({fmt_number(qx)},{fmt_number(ty)}) scale({fmt_number(sc)},{fmt_number(sc * (1 - flatten * far))}) "
-              f"translate({fmt_number(-qx)},{fmt_number(-qy)})")
-        attrs: dict[str, Any] = {"transform": tf}
-        if soft > 0:
-            blur = dwg.defs.add(dwg.filter(id=f"soft{i}", x="-10%", y="-10%", width="120%", height="120%"))
-            blur.feGaussianBlur(in_="SourceGraphic", stdDeviation=fmt_number(soft * height))
-            attrs["filter"] = f"url(#soft{i})"
-        layer = page.layer(f"cloud {int(i) + 1} (depth {int(depth[i])})", **attrs)
-        d = page.d(pts)
-        clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
-        clip.add(dwg.path(d=d))
-        lobe = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.35 * sx, 0.5 - 0.35 * sy), id=f"lobe{i}")
-        for off, colour in ((0.0, top), (0.62, top), (1.0, mid)):     # sunlit domes stay white; grey only at the rim
-            lobe.add_stop_color(off, colour)
-        dwg.defs.add(lobe)
-        base = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"base{i}")
-        base.add_stop_color(0.55, bottom, 0.0)
-        base.add_stop_color(1.0, bottom, 0.85)
-        dwg.defs.add(base)
-        g = dwg.g(clip_path=f"url(#cloud{i})")
-        g.add(dwg.path(d=d, fill=_mix(top, bottom, 0.3)))                # fringes between lobes: lit
-        lobes = _lobes(pts, cv, lobe_min * height)
-        for c, r in sorted(lobes, key=lambda cr: cr[0][1]):          # low lobes first, tops in front
-            (cx, cy), = page.xy(c[None])
-            g.add(dwg.circle(center=(fmt_number(cx), fmt_number(cy)), r=fmt_number(1.15 * r), fill=f"url(#lobe{i})"))
-        x0, y0 = page.xy(np.array([[pts[:, 0].min(), pts[:, 1].max()]]))[0]
-        g.add(dwg.rect(insert=(fmt_number(x0), fmt_number(y0)), size=(fmt_number(np.ptp(pts[:, 0])), fmt_number(height)),
-                       fill=f"url(#base{i})"))
-        layer.add(g)
-    return finish(dwg, provenance, title or "snaxel cloudscape")
 
 
 # -- pen plotters ---------------------------------------------------------------------------------
@@ -357,7 +226,7 @@ def plotter_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
     pen-up travel. The final outlines (every cloud of a cloudscape, or the last contour of a
     ``{cloud}_history``) go on layer "outline"; with ``process`` the earlier contours of a
     history go on layer "process" (a second pen). ``pen_width`` is in ``units``."""
-    dom = _need(domain, "cloud_plotter_svg")
+    dom = need(domain, "cloud_plotter_svg")
     if dom.n_lines == 0:
         raise InputError("cloud_plotter_svg: the domain has no line to plot")
     if not 0 <= int(smooth) <= 6:
@@ -369,7 +238,7 @@ def plotter_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
     pens = [("outline", final)]
     if process:
         pens.append(("process", list(range(dom.n_lines - 1))))
-    page = Page(_box(dom), width, units)
+    page = Page(domain_box(dom), width, units)
     dwg = page.dwg
     pen = np.zeros(2)
     for name, idx in pens:
@@ -434,7 +303,7 @@ def detail_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, f
     window framed on the overview and redrawn at its own scale (the factor is written on it),
     outline stroked so the detail reads. ``windows``: explicit [x, y, side] in model units;
     else ``focus`` = fringe | neck picks them (:func:`detail_windows`)."""
-    dom = _need(domain, "cloud_detail_svg")
+    dom = need(domain, "cloud_detail_svg")
     if focus not in ("fringe", "neck"):
         raise InputError(f"cloud_detail_svg: focus = {focus!r}, expected fringe or neck")
     xy = dom.line(dom.n_lines - 1)
@@ -487,7 +356,8 @@ EXPORTERS: list[tuple[str, str, Any, str]] = [
     ("cloud_view_svg", ".svg", view_svg, "Figure 1.2: tessellation, snake segments and snaxels"),
     ("cloud_anim_svg", ".svg", anim_svg, "animated SVG of the growth (from {cloud}_history)"),
     ("cloud_gif", ".gif", anim_gif, "animated GIF of the growth (from {cloud}_history)"),
-    ("cloudscape_svg", ".svg", cloudscape_svg, "illustrated cloudscape: lobe gradients, flat shaded bases, a layer per cloud"),
+    ("cloudscape_svg", ".svg", cloudscape_svg, "illustrated cloudscape: lit lobes shading each other, silver linings, "
+     "flat shaded bases, optional ground with cloud shadows, a layer per cloud"),
     ("cloud_plotter_svg", ".svg", plotter_svg, "stroke-only outlines for pen plotters, ordered, pens as layers"),
     ("cloud_detail_svg", ".svg", detail_svg, "the cloud beside magnified windows of its fringe or neck (Figs 4.4, 4.8)"),
 ]

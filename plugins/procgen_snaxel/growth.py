@@ -80,9 +80,11 @@ class CloudGrowth:
         self.snake.head_on = cfg.merge == "head_on"
         # independent streams: curve speeds, split points, cluster choices (digest property 22)
         self.rng_speed, self.rng_split, self.rng_cluster = rng.spawn(3)
+        self.rng_jitter = rng.spawn(1)[0]    # limit_jitter's draws (none at 0: thesis streams unchanged)
         self.vb = np.zeros(0)
         self.vs = np.zeros(0)
         self.cluster_of = np.zeros(0, np.int64)
+        self.jitter = np.ones(0)           # per curve: the factor on its table limit (limit_jitter)
         self.n_curves = 0
         self.marked = marked
         self.guide = guide     # points (k, 2) -> attraction (higher = preferred) for seed_policy field / sketch
@@ -152,10 +154,14 @@ class CloudGrowth:
             self.vb = np.resize(self.vb, cap)
             self.vs = np.resize(self.vs, cap)
             self.cluster_of = np.resize(self.cluster_of, cap)
+            self.jitter = np.resize(self.jitter, cap)
         if copy_of is None:   # A8: independent draws for the base value and the shape speed
             self.vb[cid], self.vs[cid] = self.rng_speed.uniform(self.cfg.v_min, self.cfg.v_max, 2)
+            j = self.cfg.limit_jitter
+            self.jitter[cid] = np.exp(self.rng_jitter.uniform(-j, j)) if j > 0 else 1.0
         else:
             self.vb[cid], self.vs[cid] = self.vb[copy_of], self.vs[copy_of]
+            self.jitter[cid] = self.jitter[copy_of]
         self.cluster_of[cid] = cluster
         self.n_curves += 1
         return cid
@@ -178,14 +184,17 @@ class CloudGrowth:
             raise AssertionError("chain must start at a curve boundary")
         starts = np.flatnonzero(start_mask)
         rid = np.cumsum(start_mask) - 1
-        ends = np.append(starts[1:], n) - 1
+        bound = np.empty(len(starts) + 1, np.int64)
+        bound[:-1], bound[-1] = starts, n
         inner = seg.copy()
-        inner[ends] = 0.0                              # gap segments belong to no curve
+        inner[bound[1:] - 1] = 0.0                     # gap segments belong to no curve
         length = np.bincount(rid, inner, minlength=len(starts))
-        cs = np.concatenate([[0.0], np.cumsum(inner)])
+        cs = np.empty(n + 1)                           # cs[i]: curve length before snaxel i
+        cs[0] = 0.0
+        np.cumsum(inner, out=cs[1:])
         arc = cs[:-1] - cs[starts][rid]
-        cg = np.concatenate([[0.0], np.cumsum(seg)])
-        return Runs(starts, rid, np.diff(np.append(starts, n)), c[starts], length, arc, cg[:-1], float(cg[-1]))
+        np.cumsum(seg, out=cs[1:])                     # now along the whole chain, gaps included
+        return Runs(starts, rid, np.diff(bound), c[starts], length, arc, cs[:-1], float(cs[-1]))
 
     def normalise(self) -> None:
         """Keep curves contiguous (fragments left by hole discards become curves of their own)
@@ -201,7 +210,7 @@ class CloudGrowth:
             c = snake.ints[:, CURVE]
             starts = starts - starts[0]
         labels = c[starts]
-        if len(np.unique(labels)) != len(labels):   # rare: a curve cut in two by a discarded hole
+        if np.bincount(labels).max() > 1:   # rare: a curve cut in two by a discarded hole
             seen: set[int] = set()
             ends = np.append(starts[1:], len(c))
             for s0, e0, lab in zip(starts, ends, labels):
@@ -230,6 +239,8 @@ class CloudGrowth:
     def _split_long(self, runs: Runs, t: np.ndarray) -> bool:
         active = self.cluster_of[runs.curve] == self.active
         limit = self.limits.limit(np.maximum.reduceat(t, runs.starts))
+        if self.cfg.limit_jitter > 0:
+            limit = limit * self.jitter[runs.curve]
         changed = False
         for r in np.flatnonzero(active & (runs.length > limit) & (runs.count >= 4)):   # per split event
             s0 = int(runs.starts[r])
@@ -268,7 +279,7 @@ class CloudGrowth:
             a, b = work.pop()
             loc = base[a - s0:b - s0] - base[a - s0]
             length = float(loc[-1])
-            if length <= float(self.limits.limit(t[a:b].max())) or b - a < 4:
+            if length <= float(self.limits.limit(t[a:b].max())) * self.jitter[snake.ints[a, CURVE]] or b - a < 4:
                 continue
             # piece 1 = a..i, piece 2 = i+1..b-1, >= 2 snaxels and >= c_min long each (A7)
             i = np.arange(1, b - a - 2)

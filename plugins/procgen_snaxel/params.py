@@ -39,6 +39,9 @@ class GrowthParams(RuleBase):
     G_max: float = param(10.0, gt=0.0, doc="projection segment of the circular scheme (shape knob with v)")
     table: list[list[float]] = param([list(r) for r in THESIS_TABLES["4.5"]],
                                      doc="length-limits table: rows [from, to, max length], last may be [from, max]")
+    limit_jitter: float = param(0.0, ge=0.0, le=1.0,
+                                doc="each curve's table limit times exp(u), u uniform in [-limit_jitter, "
+                                    "limit_jitter] per curve: bumps and fringes of varied sizes (0: the thesis)")
     t_min: float = param(0.0, ge=0.0, units="length", doc="cluster reset distance, lower end")
     t_max: float = param(150.0, ge=0.0, units="length", doc="cluster reset distance, upper end")
     g_min: float = param(240.0, gt=0.0, units="length", doc="cluster allowed growth, lower end")

@@ -14,7 +14,7 @@ from .fractal import ensemble_dimension
 from .growth import CloudGrowth, Snapshot
 from .params import _EXAMPLE_GROWTH, GrowthParams
 from .sketch import check_inside, mark_vertices, strokes_from_lists, strokes_from_svg
-from .tile_poisson import kernel
+from .tile_poisson import tile_sampler
 from .tiles import TiledTopology
 from .topology import Topology, mesh_topology
 
@@ -131,6 +131,10 @@ class GrowthRule(GrowthParams):
             raise InputError(f"{self.name}: {exc}") from None
         if growth.snapshot_every == 0:
             growth.snapshot_every = max(1, int(round(4.0 * topo.mean_edge / (cfg.v_max * cfg.dt))))
+        if isinstance(topo, TiledTopology) and tile_sampler(topo.accelerate) == "numba":
+            # numba is loaded for the tiles anyway, so the events take their compiled path (the
+            # same chains, procgen_snaxel.events_numba) at any chain length, not from MIN_SNAXELS
+            growth.snake.accelerate = True
         return growth
 
 
@@ -252,7 +256,7 @@ class GrowCloud(GrowthRule):
         state.add_domain(f"{self.cloud}_view", view_domain(self._topo, g.snake.xy(), self.view_window, self._box))
         if isinstance(self._topo, TiledTopology):
             state.report(f"{self.cloud}.tiles", self._topo.n_tiles)
-            state.report(f"{self.cloud}.tile_sampler", "numba" if kernel() is not None else "numpy")
+            state.report(f"{self.cloud}.tile_sampler", tile_sampler(self._topo.accelerate))
         for k, v in g.report().items():
             state.report(k if k in ("N_s", "N_v") else f"{self.cloud}.{k}", v)
         state.report(f"{self.cloud}.clusters", g.stats.cluster_log)

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import svgwrite
 
-from procgen import InputError
+from procgen import InputError, Polylines
 from procgen.exchange.svg import fmt_number, path_data
 
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
@@ -62,3 +62,42 @@ class Page:
         if colour:
             self.layer("sky").add(self.dwg.rect(insert=(0, 0), size=(fmt_number(self.w), fmt_number(self.h)),
                                                 fill=colour))
+
+
+def curve_pieces(pts: np.ndarray, cv: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """(curve id, points) of each curve of a closed contour, each including the joint to the next."""
+    n = len(pts)
+    starts = np.flatnonzero(cv != np.roll(cv, 1))
+    if len(starts) == 0:
+        starts = np.array([0])
+    out = []
+    for k, s in enumerate(starts):
+        e = starts[(k + 1) % len(starts)]
+        idx = np.arange(s, (e if e > s else e + n) + 1) % n
+        out.append((int(cv[s]), pts[idx]))
+    return out
+
+
+def need(domain: Any, what: str, field: str | None = None) -> Polylines:
+    """The Polylines a snaxel rule made (with ``field``), else a one-line InputError."""
+    if not isinstance(domain, Polylines):
+        raise InputError(f"{what}: expected the Polylines a snaxel rule made, got {domain.kind}")
+    if field is not None and field not in domain:
+        raise InputError(f"{what}: domain has no field {field!r} (export the snaxel.grow/cloudscape output)")
+    return domain
+
+
+def domain_box(domain: Polylines) -> tuple[float, float, float, float]:
+    """The page box (x0, x1, y0, y1): the domain's bounds, else its points' box."""
+    if domain.bounds is not None:
+        return domain.bounds
+    (x0, y0), (x1, y1) = domain.points.min(0), domain.points.max(0)
+    return (float(x0), float(x1), float(y0), float(y1))
+
+
+def mix(a: str, b: str, t: float) -> str:
+    """Colour a moved by t (0..1) towards colour b (#rrggbb)."""
+    ca = np.array([int(a[i:i + 2], 16) for i in (1, 3, 5)], float)
+    cb = np.array([int(b[i:i + 2], 16) for i in (1, 3, 5)], float)
+    c = np.clip(np.round((1 - t) * ca + t * cb), 0, 255).astype(int)
+    return "#%02x%02x%02x" % tuple(c)

@@ -34,8 +34,8 @@ class LengthLimits:
     limits: np.ndarray    # row limits
 
     def limit(self, t: np.ndarray) -> np.ndarray:
-        row = np.searchsorted(self.lower, np.asarray(t, np.float64), side="right") - 1
-        return self.limits[np.clip(row, 0, len(self.limits) - 1)]
+        # lower[0] == 0, so only t < 0 falls before the first row; searchsorted never passes the last
+        return self.limits[np.maximum(np.searchsorted(self.lower, t, side="right") - 1, 0)]
 
 
 def parse_table(rows: list[list[float]], where: str = "table") -> LengthLimits:

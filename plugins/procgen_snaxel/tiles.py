@@ -6,7 +6,7 @@ anchored at the origin, and each piece is a pure function of (seed, tile index),
 tessellation does not depend on the order in which growth asks for tiles:
 
 * **Points.** Tiles are coloured in four phases by index parity (phase = i mod 2 + 2 (j mod 2));
-  a tile is sampled (maximal; :mod:`.tile_poisson`, compiled) with the already-final samples of its
+  a tile is sampled (maximal; :mod:`.tile_poisson`, the same samples with or without numba) with the already-final samples of its
   lower-phase neighbours as fixed points, and a random stream spawned from (seed, i, j).
   Same-phase tiles never touch, so every pair of samples is >= r apart and every location is
   within r of a sample across borders (the parallel phase-group scheme of Wei 2008).
@@ -25,8 +25,6 @@ the blocks they need) and finishes the ring of every vertex whose tiles are now 
 from __future__ import annotations
 
 import numpy as np
-
-from procgen.domains.trimesh_domain import edge_table
 
 from .tile_poisson import sample_tile
 from .topology import Topology, angular_rings
@@ -48,6 +46,17 @@ def _unkey(k: int) -> Tile:
     k = int(k)
     j = (k & 0xFFFFFFFF) - (1 << 31)
     return ((k - (j + (1 << 31))) >> 32, j)
+
+
+def _extend(buf: np.ndarray, used: int, new: np.ndarray) -> np.ndarray:
+    """``buf`` holding ``new`` after its first ``used`` rows, reallocated (doubled) when full: the
+    tessellation grows by appending, and copying it whole per tile cost O(N) each time."""
+    if used + len(new) > len(buf):
+        bigger = np.empty((max(2 * len(buf), used + len(new), 1024),) + buf.shape[1:], buf.dtype)
+        bigger[:used] = buf[:used]
+        buf = bigger
+    buf[used:used + len(new)] = new
+    return buf
 
 
 def _phase(t: Tile) -> int:
@@ -84,10 +93,12 @@ class TiledTopology(Topology):
         self.tile = float(tile)
         self.seed = seed
         self.vtile = np.zeros((0, 2), np.int64)   # tile index of every vertex
+        self._bufs = {"points": np.zeros((0, 2)), "vtile": self.vtile, "ring": self.ring}   # points etc. are views
         self._points: dict[Tile, np.ndarray] = {}  # tile -> vertex ids (sampling order)
         self._owned: dict[Tile, np.ndarray] = {}   # tile -> triangles it owns
         self._owned_keys = np.zeros(0, np.int64)
         self.batches = 0
+        self.accelerate: bool | None = None   # the tile sampler's path (procgen.accel; same samples)
 
     # -- points ------------------------------------------------------------------------------
     def tile_points(self, t: Tile) -> np.ndarray:
@@ -102,12 +113,18 @@ class TiledTopology(Topology):
             fixed = self.points[dep_ids]
         rng = np.random.default_rng(np.random.SeedSequence(self.seed.entropy,
                                                            spawn_key=(*self.seed.spawn_key, _zigzag(t[0]), _zigzag(t[1]))))
-        new = sample_tile(rng, (t[0] * self.tile, t[1] * self.tile), self.tile, self.radius, fixed)
+        new = sample_tile(rng, (t[0] * self.tile, t[1] * self.tile), self.tile, self.radius, fixed,
+                          self.accelerate)
         ids = np.arange(len(self.points), len(self.points) + len(new))
-        self.points = np.concatenate([self.points, new])
-        self.vtile = np.concatenate([self.vtile, np.tile(np.array(t, np.int64), (len(new), 1))])
+        self._append("points", new)
+        self._append("vtile", np.tile(np.array(t, np.int64), (len(new), 1)))
         self._points[t] = ids
         return ids
+
+    def _append(self, name: str, new: np.ndarray) -> None:
+        used = len(getattr(self, name))
+        self._bufs[name] = _extend(self._bufs[name], used, new)
+        setattr(self, name, self._bufs[name][:used + len(new)])
 
     # -- triangles ---------------------------------------------------------------------------
     def _own(self, tiles: list[Tile]) -> None:
@@ -174,19 +191,20 @@ class TiledTopology(Topology):
         tiles = {_unkey(k) for k in np.unique(self._corner_keys(cand))}
         faces = np.concatenate([self._owned[t] for t in sorted(tiles)])
         faces = faces[want[faces].any(axis=1)]
-        edges = edge_table(faces)[0]
-        src = np.concatenate([edges[:, 0], edges[:, 1]])
-        dst = np.concatenate([edges[:, 1], edges[:, 0]])
+        # directed edges out of the wanted vertices, each once (an inner edge lies in two faces)
+        src, dst = np.repeat(faces.ravel(), 2), faces[:, [1, 2, 0, 2, 0, 1]].ravel()
         keep = want[src]
-        src, dst = angular_rings(self.points, src[keep], dst[keep])
+        key = np.unique(src[keep] * n + dst[keep])
+        src, dst = angular_rings(self.points, key // n, key % n)
         vs = np.sort(cand)                            # src is sorted by vertex id
         count = np.bincount(src, minlength=n)[vs]
         start = len(self.ring) + np.concatenate([[0], np.cumsum(count)[:-1]])
         self.ring_lo[vs] = start
         self.ring_hi[vs] = start + count
-        self.ring = np.concatenate([self.ring, dst])
+        self._append("ring", dst)
         if self.mean_edge == 0.0:
-            self.mean_edge = float(np.hypot(*(self.points[edges[:, 1]] - self.points[edges[:, 0]]).T).mean())
+            e = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1) @ np.array([n, 1]))
+            self.mean_edge = float(np.hypot(*(self.points[e % n] - self.points[e // n]).T).mean())
         self.batches += 1
 
     def ensure(self, vertices: np.ndarray) -> bool:
