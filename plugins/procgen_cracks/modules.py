@@ -144,19 +144,17 @@ class Modules:
         self.n_cracks += len(cells)
         face = self.cell_face[cells]
         start = self._inside(face, self.center2d[cells])
-        first = self.sampler.cell_of(face, start)
-        first = np.where(first >= 0, first, cells)
-        for c in (cells, first):                       # the birth cell and the start's cell
-            self.cracked[c, layers] = True
-            self.crack_of[c, layers] = crack_ids
+        self.cracked[cells, layers] = True
+        self.crack_of[cells, layers] = crack_ids
         imax = self.spec[cells, layers].max(axis=1)
-        c, lay = first[who], layers[who]
+        lay = layers[who]
         K0 = self.rule.potential * imax[who]
+        # the CM starts in the birth cell (a PART-IN cell's start point may lie in the next
+        # one: its first step enters that cell as any step does, bridged if need be)
         self._append(layer=lay, face=face[who], xy=start[who], ang=heading, K=K0,
-                     R=imax[who], crack=crack_ids[who], ctype=types[who], cell=c,
+                     R=imax[who], crack=crack_ids[who], ctype=types[who], cell=cells[who],
                      prev=cells[who], anchor=start[who])
         np.maximum.at(self.width, (cells[who], lay), self._width(self.cm["R"][-len(who):]))
-        np.maximum.at(self.width, (c, lay), self._width(self.cm["R"][-len(who):]))
 
     def _inside(self, face: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Points moved towards their facet's centroid just far enough to lie on the facet
@@ -226,7 +224,9 @@ class Modules:
         late[first] = False
         collide[cand[late]] = True
         new = entering & ~collide
-        self._bridge(np.nonzero(new & crossed)[0], cell_new, lay, hvec)
+        stuck = self._bridge(np.nonzero(new)[0], cell_new, lay)
+        collide[stuck] = True
+        new[stuck] = False
         self.cracked[cell_new[new], lay[new]] = True
         self.crack_of[cell_new[new], lay[new]] = cm["crack"][new]
         cm["prev"] = np.where(entering, cm["cell"], cm["prev"])
@@ -236,7 +236,8 @@ class Modules:
         # 3. release the stress across the step, widen the crack
         go = ~lost
         cm["R"] = cm["R"] + self._release(np.nonzero(go)[0])
-        np.maximum.at(self.width, (cell_new[go], lay[go]), self._width(cm["R"][go]))
+        wide = go & self.cracked[cell_new, lay]                 # not a CM stuck at a facet edge
+        np.maximum.at(self.width, (cell_new[wide], lay[wide]), self._width(cm["R"][wide]))
         # 4. merged segments: a vertex where the chord from the last vertex turns by > CSa
         self._segments(xy, ~crossed & go, np.where(crossed, 0.0, new_ang - ang))
         self.stats["steps"] += 1
@@ -273,25 +274,68 @@ class Modules:
         vals = self.spec[np.maximum(cells, 0), lay[:, None]]          # (m, 4 cells, 4 axes)
         return np.einsum("mq,mqk->mk", w / np.where(tot > 0, tot, 1.0), vals), tot[:, 0] > 0
 
-    def _bridge(self, idx: np.ndarray, cell_new: np.ndarray, lay: np.ndarray, hvec: np.ndarray) -> None:
-        """After a facet crossing the new cell need not be a graph neighbour of the old one (the
-        grids do not line up): crack the old cell's neighbour ahead too, so a crack stays one
-        connected set of cells in the cross-edge graph."""
-        cm = self.cm
-        old = cm["cell"][idx]
-        far = ~(self.slots[old] == cell_new[idx, None]).any(axis=1)
-        idx, old = idx[far], old[far]
-        if len(idx) == 0:
-            return
-        slot = _direction_slot(hvec[idx])
-        mid = self.slots[old, slot]
-        ok = mid >= 0
-        idx, mid = idx[ok], mid[ok]
-        ok = ~self.cracked[mid, lay[idx]] & self.active[mid, lay[idx]]
-        idx, mid = idx[ok], mid[ok]
-        self.cracked[mid, lay[idx]] = True
-        self.crack_of[mid, lay[idx]] = cm["crack"][idx]
-        np.maximum.at(self.width, (mid, lay[idx]), self._width(cm["R"][idx]))
+    def _bridge(self, idx: np.ndarray, cell_new: np.ndarray, lay: np.ndarray) -> np.ndarray:
+        """Keep every crack one 8-connected set of cells in the cross-edge graph.
+
+        Inside a facet a step (< 1 cell) always reaches a Moore neighbour, but across a facet
+        edge the two grids do not line up and the new cell can be two or three hops from the
+        old one.  Crack the one or two cells between them (free or this crack's own, the
+        shortest path over cell centres).  Returns the CMs of ``idx`` with no such path (every
+        way through is cracked by another crack): they stop there, as on meeting that crack.
+        """
+        cm, L = self.cm, self.n_layers
+        old, new = cm["cell"][idx], cell_new[idx]
+        far = ~(self.slots[old] == new[:, None]).any(axis=1)
+        idx, old, new = idx[far], old[far], new[far]
+        m = len(idx)
+        if m == 0:
+            return idx
+        li, own = lay[idx], cm["crack"][idx]
+        claimed = cell_new[cm["cell"] != cell_new] * L + lay[cm["cell"] != cell_new]
+        c3 = np.asarray(self.sc.center3d)
+
+        def free(c: np.ndarray) -> np.ndarray:                 # c (m, k) -> usable as a bridge
+            cc = np.maximum(c, 0)
+            lk = np.broadcast_to(li[:, None], c.shape)
+            mine = self.crack_of[cc, lk] == own[:, None]
+            untaken = ~self.cracked[cc, lk] & ~np.isin(cc * L + lk, claimed)
+            return (c >= 0) & self.active[cc, lk] & (mine | untaken)
+
+        def hop(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            return np.linalg.norm(c3[np.maximum(a, 0)] - c3[np.maximum(b, 0)], axis=-1)
+
+        nb_new = self.slots[new]                                          # (m, 8)
+        a = self.slots[old]                                               # (m, 8)
+        touches = lambda c: (c[..., None] == nb_new.reshape((m,) + (1,) * (c.ndim - 1) + (8,))).any(-1)
+        one = touches(a) & free(a)
+        cost1 = np.where(one, hop(old[:, None], a) + hop(a, new[:, None]), np.inf)
+        b = self.slots[np.maximum(a, 0)]                                  # (m, 8, 8)
+        two = free(a)[:, :, None] & free(b.reshape(m, 64)).reshape(m, 8, 8) & touches(b) & \
+            (b != old[:, None, None])
+        cost2 = np.where(two, hop(old[:, None, None], a[:, :, None]) + hop(a[:, :, None], b)
+                         + hop(b, new[:, None, None]), np.inf).reshape(m, 64)
+        r = np.arange(m)
+        k1, k2 = np.argmin(cost1, axis=1), np.argmin(cost2, axis=1)
+        use1 = np.isfinite(cost1[r, k1])
+        use2 = ~use1 & np.isfinite(cost2[r, k2])
+        first = np.where(use1, a[r, k1], np.where(use2, a[r, k2 // 8], -1))
+        second = np.where(use2, b[r, k2 // 8, k2 % 8], -1)
+        ok = use1 | use2
+        # two CMs of different cracks bridging through one cell: the first (CM order) has it
+        who = np.concatenate([r, r])
+        cells = np.concatenate([first, second])
+        has = cells >= 0
+        key = cells[has] * L + li[who[has]]
+        uk, inv = np.unique(key, return_inverse=True)
+        owner = np.full(len(uk), m, np.int64)
+        np.minimum.at(owner, inv, who[has])
+        ok[who[has][own[owner[inv]] != own[who[has]]]] = False
+        sel = ok[who] & has
+        w, c = who[sel], cells[sel]
+        self.cracked[c, li[w]] = True
+        self.crack_of[c, li[w]] = own[w]
+        np.maximum.at(self.width, (c, li[w]), self._width(cm["R"][idx[w]]))
+        return idx[~ok]
 
     def _side_stress(self, idx: np.ndarray, lay: np.ndarray, face: np.ndarray, xy: np.ndarray,
                      hvec: np.ndarray, side: float) -> np.ndarray:
