@@ -89,7 +89,7 @@ class Modules:
         self._line_meta: list[tuple[np.ndarray, ...]] = []
         self._seq = 0
         self.stats = {"steps": 0, "modules": 0, "forks": 0, "collisions": 0, "stopped_by_potential": 0,
-                      "lost_at_border": 0, "max_step": 0.0, "max_heading_ratio": 0.0}
+                      "lost_at_border": 0, "max_step": 0.0}
 
     # -- bookkeeping ------------------------------------------------------------------------
     @property
@@ -197,9 +197,6 @@ class Modules:
             right = self._side_stress(amb, lay, face, xy, hvec, -1.0)
             d[amb] = np.where(left < right, 1.0, np.where(right < left, -1.0, np.sign(d[amb]))) * np.abs(d[amb])
         turn = np.where(above, (1.0 - r.inertia / 100.0) * d, 0.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = np.where(np.abs(d) > 1e-12, np.abs(turn) / np.abs(d), 0.0)
-        self.stats["max_heading_ratio"] = max(self.stats["max_heading_ratio"], float(ratio.max()))
         new_ang = ang + turn
         fork = above & (s1 - s2 < r.fork_epsilon * mr) & (s2 > mr) & (cm["steps"] >= 2)
         cm["K"] = cm["K"] + r.potential * (s1 - mr) * r.step_length
@@ -208,6 +205,10 @@ class Modules:
         step_vec = r.step_length * s * np.column_stack([np.cos(new_ang), np.sin(new_ang)])
         q = xy + step_vec
         old3 = self.sc.layout.frames.to_3d(face, xy)
+        # merged segments: a vertex where the chord from the last vertex turns by > CSa (before
+        # the facet crossing, so that a turn in a crossing step is stored before its edge point)
+        cm["xy"] = q
+        self._segments(xy, new_ang - ang)
         new_face, q, new_ang, lost, crossed = self._cross(face, xy, q, new_ang)
         new3 = self.sc.layout.frames.to_3d(new_face, q)
         self.stats["max_step"] = max(self.stats["max_step"], float(np.linalg.norm(new3 - old3, axis=1).max()))
@@ -238,10 +239,8 @@ class Modules:
         cm["R"] = cm["R"] + self._release(np.nonzero(go)[0])
         wide = go & self.cracked[cell_new, lay]                 # not a CM stuck at a facet edge
         np.maximum.at(self.width, (cell_new[wide], lay[wide]), self._width(cm["R"][wide]))
-        # 4. merged segments: a vertex where the chord from the last vertex turns by > CSa
-        self._segments(xy, ~crossed & go, np.where(crossed, 0.0, new_ang - ang))
         self.stats["steps"] += 1
-        # 5. endings and forks
+        # 4. endings and forks
         ended = collide | (cm["K"] <= 0) | lost | (cm["steps"] >= r.max_module_steps)
         self.stats["collisions"] += int(collide.sum())
         self.stats["stopped_by_potential"] += int(((cm["K"] <= 0) & ~collide & ~lost).sum())
@@ -391,14 +390,14 @@ class Modules:
             self._new_lines(ok)
             self._emit(ok, eg, face[ok])
             cm["anchor"][ok] = eg
-            cm["seg"][ok] = np.nan
+            cm["seg"][ok] = ang[ok]                  # the new line runs along the heading
             cm["turn"][ok] = 0.0
         still = np.nonzero((ed.outside(face, q) < -1e-9 * self.size).any(axis=1) & ~lost)[0]
         lost[still] = True
         q[still] = p[still]
         return face, q, ang, lost, crossed
 
-    def _segments(self, old_xy: np.ndarray, check: np.ndarray, dturn: np.ndarray) -> None:
+    def _segments(self, old_xy: np.ndarray, dturn: np.ndarray) -> None:
         """Store a vertex at the previous position where the path has turned by more than CSa."""
         cm, r = self.cm, self.rule
         cm["turn"] = cm["turn"] + np.abs(dturn)
@@ -409,7 +408,7 @@ class Modules:
         csa = np.radians(r.segment_angle)
         with np.errstate(invalid="ignore"):
             bend = (np.abs(wrap_angle(cang - cm["seg"])) > csa) | (cm["turn"] > csa + np.radians(r.segment_tolerance))
-        vert = np.nonzero(check & bend & ~fresh)[0]
+        vert = np.nonzero(bend & ~fresh)[0]
         if len(vert) == 0:
             return
         self._emit(vert, old_xy[vert], cm["face"][vert])
