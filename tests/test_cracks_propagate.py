@@ -304,6 +304,10 @@ def test_two_parallel_cracks_meet_at_about_a_right_angle(host):
     assert state.reports["cracks.collisions"] >= 1
     assert angles and max(angles) >= 70.0
     assert all(a > 70.0 for a in angles if a > 45.0)
+    # the run's own report of the meeting angles (shown on the plate-5.5 card) agrees
+    met = [a for a in angles if a > 45.0]
+    assert state.reports["cracks.meetings"] == len(met)
+    assert state.reports["cracks.meeting_angle_deg"] == pytest.approx(np.median(met), abs=0.5)
 
 
 def test_fork_children_leave_at_60_degrees(host):

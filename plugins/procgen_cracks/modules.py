@@ -199,7 +199,9 @@ class Modules:
         turn = np.where(above, (1.0 - r.inertia / 100.0) * d, 0.0)
         new_ang = ang + turn
         fork = above & (s1 - s2 < r.fork_epsilon * mr) & (s2 > mr) & (cm["steps"] >= 2)
-        cm["K"] = cm["K"] + r.potential * (s1 - mr) * r.step_length
+        # K grows with the excess over mR and falls with the deficit below it, times the drag
+        excess = s1 - mr
+        cm["K"] = cm["K"] + r.potential * np.where(excess > 0, excess, r.drag * excess) * r.step_length
         self._drive = s1                                      # the stress each CM relieves
         # 2. move, crossing facet edges
         step_vec = r.step_length * s * np.column_stack([np.cos(new_ang), np.sin(new_ang)])
@@ -421,15 +423,18 @@ class Modules:
         """Release stress across the last step of CMs ``sel`` (thesis 5.2.4.c, Figure 5.13).
 
         Cells whose centre projects onto the step and lies within d cells of it lose, on each
-        axis, ``release * S * (1 - x/d) * |sin(axis - path)|`` (clipped at what the cell holds),
-        S the stress driving the CM (its strongest axis ahead): the stress across the path, the
-        most on the path, falling linearly to 0 at distance d; stress along the path stays.  The
-        thesis makes the "release intensity" depend on the material and the crack thickness and
-        fall linearly (5.2.4.c); with ``release`` > 1 the across-path stress is gone in a band
-        along the crack, so that what remains there runs along it and an approaching crack turns
-        to meet it at about 90 degrees (plate 5.5).  (A cell whose centre projects outside every
-        step, at a sharp turn, gets none: the thesis's Figure 5.13 flaw.)  Returns the stress
-        released by each CM (0 for the others).
+        axis, ``release * S * (1 - x/d) * |sin(axis - path)|`` (clipped at what the cell holds):
+        the stress across the path, the most on the path, falling linearly to 0 at distance d;
+        stress along the path stays.  S is the stress driving the CM (its strongest axis ahead;
+        ``release_of = "drive"``), or the cell's own value on that axis (``"cell"``; then the
+        share ``release * (1 - x/d)`` is capped at 1, so that a cell far above mR near the path
+        loses its across stress too, instead of staying unstable and seeding a stub).  The
+        thesis makes the "release intensity" depend on the material and the crack thickness
+        and fall linearly (5.2.4.c); with ``release`` > 1 the across-path stress is gone in a
+        band along the crack, so that what remains there runs along it and an approaching
+        crack turns to meet it at about 90 degrees (plate 5.5).  (A cell whose centre projects
+        outside every step, at a sharp turn, gets none: the thesis's Figure 5.13 flaw.)  Returns
+        the stress released by each CM (0 for the others).
         """
         out = np.zeros(self.n_live)
         if len(sel) == 0:
@@ -465,8 +470,11 @@ class Modules:
         perp = np.abs(rel[:, 0] * hv[:, 1] - rel[:, 1] * hv[:, 0]) / s
         band = (t >= -1e-9) & (t < 1.0 - 1e-9) & (perp < dist)       # each centre on one step
         mi, hv, key, perp = mi[band], hv[band], key[band], perp[band]
-        amount = (r.release * self._drive[sel][mi] * (1.0 - perp / dist))[:, None] * \
-            across_share(np.arctan2(hv[:, 1], hv[:, 0]))
+        share = (r.release * (1.0 - perp / dist))[:, None] * across_share(np.arctan2(hv[:, 1], hv[:, 0]))
+        if r.release_of == "cell":
+            amount = np.minimum(share, 1.0) * self.flat[key]
+        else:
+            amount = share * self._drive[sel][mi][:, None]
         uk, inv = np.unique(key, return_inverse=True)
         tot = np.zeros((len(uk), 4))
         np.add.at(tot, inv, amount)
@@ -530,3 +538,55 @@ class Modules:
         offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         return p3, offsets, {"crack__width": w, "crack__face": face}, \
             {"crack__layer": lay[keep_line], "crack__type": typ[keep_line]}
+
+
+def meeting_angles(points: np.ndarray, offsets: np.ndarray, size: float) -> np.ndarray:
+    """Angles (degrees, 0-90) at which crack ends meet another crack (thesis plate 5.5).
+
+    Lines sharing an end point (a facet crossing, a fork, the heads of one birth) form one
+    chain; a line's last point that no other line shares is a crack end, and where it lies
+    within 1.5 cells of another chain's path the end met that crack: the angle is the one
+    between the end's last segment and the nearest segment of the other chain.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    offsets = np.asarray(offsets, np.int64)
+    n_lines = len(offsets) - 1
+    if n_lines == 0 or len(points) < 2:
+        return np.zeros(0)
+    line_of = np.repeat(np.arange(n_lines), np.diff(offsets))
+    tips = np.concatenate([offsets[:-1], offsets[1:] - 1])
+    _, inv, cnt = np.unique(np.round(points[tips] / size, 6), axis=0, return_inverse=True,
+                            return_counts=True)
+    inv = inv.ravel()
+    link = coo_matrix((np.ones(len(tips)), (line_of[tips], n_lines + inv)),
+                      shape=(n_lines + len(cnt),) * 2)
+    chain = connected_components(link, directed=False)[1][:n_lines]
+    # the path sampled every half cell, each sample knowing its segment
+    seg = np.nonzero(line_of[:-1] == line_of[1:])[0]
+    a, b = points[seg], points[seg + 1]
+    reps = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) / (0.5 * size)).astype(np.int64), 1)
+    sid = np.repeat(np.arange(len(seg)), reps)
+    t = (np.arange(len(sid)) - np.repeat(np.cumsum(reps) - reps, reps)) / np.repeat(reps, reps)
+    samples = a[sid] + t[:, None] * (b - a)[sid]
+    ends = offsets[1:] - 1
+    free = (cnt[inv[n_lines:]] == 1) & (np.diff(offsets) >= 2)
+    ends, own = ends[free], chain[free]
+    if len(ends) == 0:
+        return np.zeros(0)
+    dist, near = cKDTree(samples).query(points[ends], k=min(32, len(samples)),
+                                        distance_upper_bound=1.5 * size)
+    dist, near = dist.reshape(len(ends), -1), near.reshape(len(ends), -1)
+    hit = np.isfinite(dist)
+    other = np.where(hit, chain[line_of[seg[sid[np.minimum(near, len(sid) - 1)]]]], -1)
+    ok = hit & (other != own[:, None])
+    met = ok.any(axis=1)
+    first = np.argmax(ok, axis=1)[met]
+    s_other = sid[near[met, first]]
+    u = points[ends[met]] - points[ends[met] - 1]
+    v = (b - a)[s_other]
+    cos = np.abs(np.einsum("md,md->m", u, v)) / np.maximum(
+        np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
+    return np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))
