@@ -89,7 +89,7 @@ class Modules:
         self._line_meta: list[tuple[np.ndarray, ...]] = []
         self._seq = 0
         self.stats = {"steps": 0, "modules": 0, "forks": 0, "collisions": 0, "stopped_by_potential": 0,
-                      "lost_at_border": 0, "max_step": 0.0, "max_heading_ratio": 0.0}
+                      "lost_at_border": 0, "max_step": 0.0}
 
     # -- bookkeeping ------------------------------------------------------------------------
     @property
@@ -144,19 +144,17 @@ class Modules:
         self.n_cracks += len(cells)
         face = self.cell_face[cells]
         start = self._inside(face, self.center2d[cells])
-        first = self.sampler.cell_of(face, start)
-        first = np.where(first >= 0, first, cells)
-        for c in (cells, first):                       # the birth cell and the start's cell
-            self.cracked[c, layers] = True
-            self.crack_of[c, layers] = crack_ids
+        self.cracked[cells, layers] = True
+        self.crack_of[cells, layers] = crack_ids
         imax = self.spec[cells, layers].max(axis=1)
-        c, lay = first[who], layers[who]
+        lay = layers[who]
         K0 = self.rule.potential * imax[who]
+        # the CM starts in the birth cell (a PART-IN cell's start point may lie in the next
+        # one: its first step enters that cell as any step does, bridged if need be)
         self._append(layer=lay, face=face[who], xy=start[who], ang=heading, K=K0,
-                     R=imax[who], crack=crack_ids[who], ctype=types[who], cell=c,
+                     R=imax[who], crack=crack_ids[who], ctype=types[who], cell=cells[who],
                      prev=cells[who], anchor=start[who])
         np.maximum.at(self.width, (cells[who], lay), self._width(self.cm["R"][-len(who):]))
-        np.maximum.at(self.width, (c, lay), self._width(self.cm["R"][-len(who):]))
 
     def _inside(self, face: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Points moved towards their facet's centroid just far enough to lie on the facet
@@ -199,17 +197,20 @@ class Modules:
             right = self._side_stress(amb, lay, face, xy, hvec, -1.0)
             d[amb] = np.where(left < right, 1.0, np.where(right < left, -1.0, np.sign(d[amb]))) * np.abs(d[amb])
         turn = np.where(above, (1.0 - r.inertia / 100.0) * d, 0.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = np.where(np.abs(d) > 1e-12, np.abs(turn) / np.abs(d), 0.0)
-        self.stats["max_heading_ratio"] = max(self.stats["max_heading_ratio"], float(ratio.max()))
         new_ang = ang + turn
         fork = above & (s1 - s2 < r.fork_epsilon * mr) & (s2 > mr) & (cm["steps"] >= 2)
-        cm["K"] = cm["K"] + r.potential * (s1 - mr) * r.step_length
+        # K grows with the excess over mR and falls with the deficit below it, times the drag
+        excess = s1 - mr
+        cm["K"] = cm["K"] + r.potential * np.where(excess > 0, excess, r.drag * excess) * r.step_length
         self._drive = s1                                      # the stress each CM relieves
         # 2. move, crossing facet edges
         step_vec = r.step_length * s * np.column_stack([np.cos(new_ang), np.sin(new_ang)])
         q = xy + step_vec
         old3 = self.sc.layout.frames.to_3d(face, xy)
+        # merged segments: a vertex where the chord from the last vertex turns by > CSa (before
+        # the facet crossing, so that a turn in a crossing step is stored before its edge point)
+        cm["xy"] = q
+        self._segments(xy, new_ang - ang)
         new_face, q, new_ang, lost, crossed = self._cross(face, xy, q, new_ang)
         new3 = self.sc.layout.frames.to_3d(new_face, q)
         self.stats["max_step"] = max(self.stats["max_step"], float(np.linalg.norm(new3 - old3, axis=1).max()))
@@ -226,7 +227,9 @@ class Modules:
         late[first] = False
         collide[cand[late]] = True
         new = entering & ~collide
-        self._bridge(np.nonzero(new & crossed)[0], cell_new, lay, hvec)
+        stuck = self._bridge(np.nonzero(new)[0], cell_new, lay)
+        collide[stuck] = True
+        new[stuck] = False
         self.cracked[cell_new[new], lay[new]] = True
         self.crack_of[cell_new[new], lay[new]] = cm["crack"][new]
         cm["prev"] = np.where(entering, cm["cell"], cm["prev"])
@@ -236,11 +239,10 @@ class Modules:
         # 3. release the stress across the step, widen the crack
         go = ~lost
         cm["R"] = cm["R"] + self._release(np.nonzero(go)[0])
-        np.maximum.at(self.width, (cell_new[go], lay[go]), self._width(cm["R"][go]))
-        # 4. merged segments: a vertex where the chord from the last vertex turns by > CSa
-        self._segments(xy, ~crossed & go, np.where(crossed, 0.0, new_ang - ang))
+        wide = go & self.cracked[cell_new, lay]                 # not a CM stuck at a facet edge
+        np.maximum.at(self.width, (cell_new[wide], lay[wide]), self._width(cm["R"][wide]))
         self.stats["steps"] += 1
-        # 5. endings and forks
+        # 4. endings and forks
         ended = collide | (cm["K"] <= 0) | lost | (cm["steps"] >= r.max_module_steps)
         self.stats["collisions"] += int(collide.sum())
         self.stats["stopped_by_potential"] += int(((cm["K"] <= 0) & ~collide & ~lost).sum())
@@ -273,25 +275,68 @@ class Modules:
         vals = self.spec[np.maximum(cells, 0), lay[:, None]]          # (m, 4 cells, 4 axes)
         return np.einsum("mq,mqk->mk", w / np.where(tot > 0, tot, 1.0), vals), tot[:, 0] > 0
 
-    def _bridge(self, idx: np.ndarray, cell_new: np.ndarray, lay: np.ndarray, hvec: np.ndarray) -> None:
-        """After a facet crossing the new cell need not be a graph neighbour of the old one (the
-        grids do not line up): crack the old cell's neighbour ahead too, so a crack stays one
-        connected set of cells in the cross-edge graph."""
-        cm = self.cm
-        old = cm["cell"][idx]
-        far = ~(self.slots[old] == cell_new[idx, None]).any(axis=1)
-        idx, old = idx[far], old[far]
-        if len(idx) == 0:
-            return
-        slot = _direction_slot(hvec[idx])
-        mid = self.slots[old, slot]
-        ok = mid >= 0
-        idx, mid = idx[ok], mid[ok]
-        ok = ~self.cracked[mid, lay[idx]] & self.active[mid, lay[idx]]
-        idx, mid = idx[ok], mid[ok]
-        self.cracked[mid, lay[idx]] = True
-        self.crack_of[mid, lay[idx]] = cm["crack"][idx]
-        np.maximum.at(self.width, (mid, lay[idx]), self._width(cm["R"][idx]))
+    def _bridge(self, idx: np.ndarray, cell_new: np.ndarray, lay: np.ndarray) -> np.ndarray:
+        """Keep every crack one 8-connected set of cells in the cross-edge graph.
+
+        Inside a facet a step (< 1 cell) always reaches a Moore neighbour, but across a facet
+        edge the two grids do not line up and the new cell can be two or three hops from the
+        old one.  Crack the one or two cells between them (free or this crack's own, the
+        shortest path over cell centres).  Returns the CMs of ``idx`` with no such path (every
+        way through is cracked by another crack): they stop there, as on meeting that crack.
+        """
+        cm, L = self.cm, self.n_layers
+        old, new = cm["cell"][idx], cell_new[idx]
+        far = ~(self.slots[old] == new[:, None]).any(axis=1)
+        idx, old, new = idx[far], old[far], new[far]
+        m = len(idx)
+        if m == 0:
+            return idx
+        li, own = lay[idx], cm["crack"][idx]
+        claimed = cell_new[cm["cell"] != cell_new] * L + lay[cm["cell"] != cell_new]
+        c3 = np.asarray(self.sc.center3d)
+
+        def free(c: np.ndarray) -> np.ndarray:                 # c (m, k) -> usable as a bridge
+            cc = np.maximum(c, 0)
+            lk = np.broadcast_to(li[:, None], c.shape)
+            mine = self.crack_of[cc, lk] == own[:, None]
+            untaken = ~self.cracked[cc, lk] & ~np.isin(cc * L + lk, claimed)
+            return (c >= 0) & self.active[cc, lk] & (mine | untaken)
+
+        def hop(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            return np.linalg.norm(c3[np.maximum(a, 0)] - c3[np.maximum(b, 0)], axis=-1)
+
+        nb_new = self.slots[new]                                          # (m, 8)
+        a = self.slots[old]                                               # (m, 8)
+        touches = lambda c: (c[..., None] == nb_new.reshape((m,) + (1,) * (c.ndim - 1) + (8,))).any(-1)
+        one = touches(a) & free(a)
+        cost1 = np.where(one, hop(old[:, None], a) + hop(a, new[:, None]), np.inf)
+        b = self.slots[np.maximum(a, 0)]                                  # (m, 8, 8)
+        two = free(a)[:, :, None] & free(b.reshape(m, 64)).reshape(m, 8, 8) & touches(b) & \
+            (b != old[:, None, None])
+        cost2 = np.where(two, hop(old[:, None, None], a[:, :, None]) + hop(a[:, :, None], b)
+                         + hop(b, new[:, None, None]), np.inf).reshape(m, 64)
+        r = np.arange(m)
+        k1, k2 = np.argmin(cost1, axis=1), np.argmin(cost2, axis=1)
+        use1 = np.isfinite(cost1[r, k1])
+        use2 = ~use1 & np.isfinite(cost2[r, k2])
+        first = np.where(use1, a[r, k1], np.where(use2, a[r, k2 // 8], -1))
+        second = np.where(use2, b[r, k2 // 8, k2 % 8], -1)
+        ok = use1 | use2
+        # two CMs of different cracks bridging through one cell: the first (CM order) has it
+        who = np.concatenate([r, r])
+        cells = np.concatenate([first, second])
+        has = cells >= 0
+        key = cells[has] * L + li[who[has]]
+        uk, inv = np.unique(key, return_inverse=True)
+        owner = np.full(len(uk), m, np.int64)
+        np.minimum.at(owner, inv, who[has])
+        ok[who[has][own[owner[inv]] != own[who[has]]]] = False
+        sel = ok[who] & has
+        w, c = who[sel], cells[sel]
+        self.cracked[c, li[w]] = True
+        self.crack_of[c, li[w]] = own[w]
+        np.maximum.at(self.width, (c, li[w]), self._width(cm["R"][idx[w]]))
+        return idx[~ok]
 
     def _side_stress(self, idx: np.ndarray, lay: np.ndarray, face: np.ndarray, xy: np.ndarray,
                      hvec: np.ndarray, side: float) -> np.ndarray:
@@ -347,14 +392,14 @@ class Modules:
             self._new_lines(ok)
             self._emit(ok, eg, face[ok])
             cm["anchor"][ok] = eg
-            cm["seg"][ok] = np.nan
+            cm["seg"][ok] = ang[ok]                  # the new line runs along the heading
             cm["turn"][ok] = 0.0
         still = np.nonzero((ed.outside(face, q) < -1e-9 * self.size).any(axis=1) & ~lost)[0]
         lost[still] = True
         q[still] = p[still]
         return face, q, ang, lost, crossed
 
-    def _segments(self, old_xy: np.ndarray, check: np.ndarray, dturn: np.ndarray) -> None:
+    def _segments(self, old_xy: np.ndarray, dturn: np.ndarray) -> None:
         """Store a vertex at the previous position where the path has turned by more than CSa."""
         cm, r = self.cm, self.rule
         cm["turn"] = cm["turn"] + np.abs(dturn)
@@ -365,7 +410,7 @@ class Modules:
         csa = np.radians(r.segment_angle)
         with np.errstate(invalid="ignore"):
             bend = (np.abs(wrap_angle(cang - cm["seg"])) > csa) | (cm["turn"] > csa + np.radians(r.segment_tolerance))
-        vert = np.nonzero(check & bend & ~fresh)[0]
+        vert = np.nonzero(bend & ~fresh)[0]
         if len(vert) == 0:
             return
         self._emit(vert, old_xy[vert], cm["face"][vert])
@@ -378,15 +423,18 @@ class Modules:
         """Release stress across the last step of CMs ``sel`` (thesis 5.2.4.c, Figure 5.13).
 
         Cells whose centre projects onto the step and lies within d cells of it lose, on each
-        axis, ``release * S * (1 - x/d) * |sin(axis - path)|`` (clipped at what the cell holds),
-        S the stress driving the CM (its strongest axis ahead): the stress across the path, the
-        most on the path, falling linearly to 0 at distance d; stress along the path stays.  The
-        thesis makes the "release intensity" depend on the material and the crack thickness and
-        fall linearly (5.2.4.c); with ``release`` > 1 the across-path stress is gone in a band
-        along the crack, so that what remains there runs along it and an approaching crack turns
-        to meet it at about 90 degrees (plate 5.5).  (A cell whose centre projects outside every
-        step, at a sharp turn, gets none: the thesis's Figure 5.13 flaw.)  Returns the stress
-        released by each CM (0 for the others).
+        axis, ``release * S * (1 - x/d) * |sin(axis - path)|`` (clipped at what the cell holds):
+        the stress across the path, the most on the path, falling linearly to 0 at distance d;
+        stress along the path stays.  S is the stress driving the CM (its strongest axis ahead;
+        ``release_of = "drive"``), or the cell's own value on that axis (``"cell"``; then the
+        share ``release * (1 - x/d)`` is capped at 1, so that a cell far above mR near the path
+        loses its across stress too, instead of staying unstable and seeding a stub).  The
+        thesis makes the "release intensity" depend on the material and the crack thickness
+        and fall linearly (5.2.4.c); with ``release`` > 1 the across-path stress is gone in a
+        band along the crack, so that what remains there runs along it and an approaching
+        crack turns to meet it at about 90 degrees (plate 5.5).  (A cell whose centre projects
+        outside every step, at a sharp turn, gets none: the thesis's Figure 5.13 flaw.)  Returns
+        the stress released by each CM (0 for the others).
         """
         out = np.zeros(self.n_live)
         if len(sel) == 0:
@@ -422,8 +470,11 @@ class Modules:
         perp = np.abs(rel[:, 0] * hv[:, 1] - rel[:, 1] * hv[:, 0]) / s
         band = (t >= -1e-9) & (t < 1.0 - 1e-9) & (perp < dist)       # each centre on one step
         mi, hv, key, perp = mi[band], hv[band], key[band], perp[band]
-        amount = (r.release * self._drive[sel][mi] * (1.0 - perp / dist))[:, None] * \
-            across_share(np.arctan2(hv[:, 1], hv[:, 0]))
+        share = (r.release * (1.0 - perp / dist))[:, None] * across_share(np.arctan2(hv[:, 1], hv[:, 0]))
+        if r.release_of == "cell":
+            amount = np.minimum(share, 1.0) * self.flat[key]
+        else:
+            amount = share * self._drive[sel][mi][:, None]
         uk, inv = np.unique(key, return_inverse=True)
         tot = np.zeros((len(uk), 4))
         np.add.at(tot, inv, amount)
@@ -487,3 +538,55 @@ class Modules:
         offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         return p3, offsets, {"crack__width": w, "crack__face": face}, \
             {"crack__layer": lay[keep_line], "crack__type": typ[keep_line]}
+
+
+def meeting_angles(points: np.ndarray, offsets: np.ndarray, size: float) -> np.ndarray:
+    """Angles (degrees, 0-90) at which crack ends meet another crack (thesis plate 5.5).
+
+    Lines sharing an end point (a facet crossing, a fork, the heads of one birth) form one
+    chain; a line's last point that no other line shares is a crack end, and where it lies
+    within 1.5 cells of another chain's path the end met that crack: the angle is the one
+    between the end's last segment and the nearest segment of the other chain.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    offsets = np.asarray(offsets, np.int64)
+    n_lines = len(offsets) - 1
+    if n_lines == 0 or len(points) < 2:
+        return np.zeros(0)
+    line_of = np.repeat(np.arange(n_lines), np.diff(offsets))
+    tips = np.concatenate([offsets[:-1], offsets[1:] - 1])
+    _, inv, cnt = np.unique(np.round(points[tips] / size, 6), axis=0, return_inverse=True,
+                            return_counts=True)
+    inv = inv.ravel()
+    link = coo_matrix((np.ones(len(tips)), (line_of[tips], n_lines + inv)),
+                      shape=(n_lines + len(cnt),) * 2)
+    chain = connected_components(link, directed=False)[1][:n_lines]
+    # the path sampled every half cell, each sample knowing its segment
+    seg = np.nonzero(line_of[:-1] == line_of[1:])[0]
+    a, b = points[seg], points[seg + 1]
+    reps = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) / (0.5 * size)).astype(np.int64), 1)
+    sid = np.repeat(np.arange(len(seg)), reps)
+    t = (np.arange(len(sid)) - np.repeat(np.cumsum(reps) - reps, reps)) / np.repeat(reps, reps)
+    samples = a[sid] + t[:, None] * (b - a)[sid]
+    ends = offsets[1:] - 1
+    free = (cnt[inv[n_lines:]] == 1) & (np.diff(offsets) >= 2)
+    ends, own = ends[free], chain[free]
+    if len(ends) == 0:
+        return np.zeros(0)
+    dist, near = cKDTree(samples).query(points[ends], k=min(32, len(samples)),
+                                        distance_upper_bound=1.5 * size)
+    dist, near = dist.reshape(len(ends), -1), near.reshape(len(ends), -1)
+    hit = np.isfinite(dist)
+    other = np.where(hit, chain[line_of[seg[sid[np.minimum(near, len(sid) - 1)]]]], -1)
+    ok = hit & (other != own[:, None])
+    met = ok.any(axis=1)
+    first = np.argmax(ok, axis=1)[met]
+    s_other = sid[near[met, first]]
+    u = points[ends[met]] - points[ends[met] - 1]
+    v = (b - a)[s_other]
+    cos = np.abs(np.einsum("md,md->m", u, v)) / np.maximum(
+        np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
+    return np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))

@@ -19,7 +19,7 @@ from procgen.domains import Polylines
 from procgen.fields import check_field_name
 
 from . import birth as bt
-from .modules import Modules
+from .modules import Modules, meeting_angles
 from .stress import coplanar_slots, imposed_spectrum, relax, thickness_spectrum
 
 CELLS = "{cells}"
@@ -182,10 +182,16 @@ class CrackPropagate(RuleBase):
                                      doc="CSat: extra heading turn tolerated inside one segment")
     inertia: float = param(65.0, ge=0.0, le=100.0, doc="Iip: inertia influence percentage")
     potential: float = param(0.5, gt=0.0, doc="p: share of the crossed stress added to K per cell")
+    drag: float = param(1.0, ge=0.0, le=1.0,
+                        doc="share of the deficit below mR that a CM's K loses per cell (thesis: "
+                            "K falls below the tolerance; how fast is not given; mud: low)")
     fork_epsilon: float = param(0.02, ge=0.0, doc="fork when the two strongest axes differ by < this x mR")
     release_distance: float = param(2.0, gt=0.0, le=20.0, doc="d: stress released out to d cells")
     release: float = param(2.0, ge=0.0, le=100.0,
                            doc="release intensity on the path, in units of the stress driving the CM")
+    release_of: str = param("drive", choices=("drive", "cell"),
+                            doc="release a share of the stress driving the CM, or of each "
+                                "cell's own across stress (mud, plate 5.10)")
     step_length: float = param(0.7, gt=0.0, lt=1.0, doc="CM step in cells (shorter than a cell)")
     lookahead: float = param(1.5, ge=0.0, le=5.0, doc="a CM reads the stress this many cells ahead")
     birth_spacing: int = param(3, ge=0, le=100, doc="births of one series at least this many cells apart")
@@ -352,6 +358,10 @@ class CrackPropagate(RuleBase):
         for name, val in mods.stats.items():
             state.report(f"{key}.{name}", float(val) if isinstance(val, float) else int(val))
         state.report(f"{key}.max_step_cells", mods.stats["max_step"] / float(mods.size))
+        pts, off, _, _ = mods.polylines()
+        angles = meeting_angles(pts, off, float(mods.size))
+        state.report(f"{key}.meetings", int(len(angles)))
+        state.report(f"{key}.meeting_angle_deg", float(np.median(angles)) if len(angles) else 0.0)
 
 
 @dataclass(kw_only=True)
