@@ -1,23 +1,27 @@
 """Compiled (numba) water-drop step: the same batch semantics as ``particles.step``, in loops.
 
-Why: the numpy step spends ~1.7 us per drop-step in temporaries and gathers; a compiled loop over
-the same arithmetic is bound by memory latency (a few cache misses per drop).  Imported only
-through :func:`procgen.accel.kernels` (this module needs numba).
+Why: the numpy step spends ~2 us per drop-step in temporaries and gathers, and a compiled loop
+that visits the drops in their own order reads the grid at random (a few cache misses per drop,
+~250 ns on this machine).  Here each step is one compiled call that keeps the grid in memory
+order: the drops are copied, sorted by cell, into a packed buffer (one 64-byte float row and one
+32-byte int row per drop), moved there, sorted again by their new cell, and interact there, so
+the grid and the drops are both walked front to back; the survivors go back into the caller's
+arrays in drop order.  Imported only through :func:`procgen.accel.kernels` (needs numba).
 
 Same numbers, bit for bit: the phases of ``particles.step`` run one after the other over all
-drops (move, absorb + deposit, erode, deposit beyond capacity, lay and remove the empty drops,
-evaporate), each expression is evaluated in the same order, and every ``np.bincount`` becomes
-an accumulator summing the same terms in the same order from 0 before adding the total to its
-target (tests/test_water_kernels.py checks array equality on all three footprints).  The
-surface gradient is evaluated where needed from a start-of-step height buffer (``np.gradient``'s
-formulas), not over the whole grid.  With the one-cell footprint the interaction phases visit
-the drops sorted by cell (a key only hears its own cell's drops, still in drop order), so the
-grid is walked in memory order instead of at random: that is what brings the step near the
-memory-latency limit.
+drops (move, drain, absorb + deposit, erode, deposit beyond capacity, lay and remove the empty
+drops, evaporate), each expression is evaluated in the same order, and every ``np.bincount``
+becomes an accumulator summing the same terms in the same order from 0 before adding the total
+to its target (tests/test_water_kernels.py checks array equality on all three footprints).  With
+the one-cell footprint a key (cell, layer) only hears the drops of its own cell, and the counting
+sort keeps them in drop order, so sorting by cell changes no sum; the wider footprints (a key
+hears drops of several cells) keep the drop order (the sort key is then 0).  The surface gradient
+is evaluated where needed from a start-of-step height buffer (``np.gradient``'s formulas).
 
-Memory: one 32-byte row per (cell, layer) key (sum, value, phase stamp, deposit sum), the
-height and a counting-sort buffer are allocated once per Surface, and per-drop scratch grows
-geometrically: a step allocates nothing proportional to the grid (``bytes_per_cell``).
+Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
+height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
+in each of two buffers and the pair scratch, grown geometrically: a step allocates nothing
+(``bytes_per_cell``, ``Work.bytes_per_drop``).
 """
 from __future__ import annotations
 
@@ -31,45 +35,64 @@ from . import particles as P
 _FOOTPRINTS = {"cell": 0, "bilinear": 1, "disc": 2}
 _ATTR = "_drop_kernel_work"
 
+# a drop's packed rows: floats (64 bytes) and int32s (32 bytes; KIND..AGE are the Drops fields,
+# RANK its index in the caller's arrays, CELL / TOP / OUT per-step scratch)
+X, Y, VX, VY, VOL, SED, SPD, DH = range(8)
+KIND, MOV, AGE, RANK, CELL, TOP, OUT = range(7)
+
 
 class Work:
     """Scratch reused by every compiled step on one Surface: per key (cell, layer) one 32-byte
-    row (sum, value, phase stamp, deposit sum), the start-of-step height, a counting-sort
-    buffer, and per-drop / per-pair arrays grown geometrically with the drop count."""
+    row (sum, value, phase stamp, deposit sum), the start-of-step height, the counting-sort
+    slots, and per-drop / per-pair arrays grown geometrically with the drop count."""
 
     def __init__(self, ncell: int, n_layers: int) -> None:
         self.sk = np.zeros((ncell * n_layers, 4))
+        self.cell_sk = np.zeros((n_layers, 4))           # the same rows for one cell's keys
         self.stamps = np.zeros(1)
         self.h = np.empty(ncell)
-        self.counts = np.empty(ncell + 1, np.int64)
+        self.counts = np.empty(ncell + 1, np.int32)
         self.cap = 0
+        self.pcap = 0
         self.grow(1024, 1)
 
     def grow(self, n: int, k: int) -> None:
-        if n < self.cap and n * k <= self.pkey.shape[0]:
+        if n <= self.cap and n * k <= self.pcap:
             return
-        self.cap = max(n + 1, 2 * self.cap)
-        m = self.cap * max(k, 4)
-        self.fl = np.empty((self.cap, 4))          # per drop: speed, dh, -, -
-        self.il = np.empty((self.cap, 4), np.int64)  # per drop: cell, top, order, -
-        self.pairs = np.empty((m, 2))              # per pair: footprint weight, demand
-        self.pkey = np.empty((m, 2), np.int64)     # per pair: drop, cell / key
-        self.touched = np.empty(m, np.int64)
-        self.dtouched = np.empty(m, np.int64)
+        self.cap = max(n, 2 * self.cap)
+        self.pcap = self.cap * max(k, 4)
+        self.fa = np.empty((self.cap, 8))              # packed drops, sorted by start cell
+        self.ia = np.empty((self.cap, 8), np.int32)
+        self.fb = np.empty((self.cap, 8))              # packed drops, sorted by end cell
+        self.ib = np.empty((self.cap, 8), np.int32)
+        self.rk = np.empty((self.cap, 2), np.int32)    # per drop index: sort key, slot
+        self.ent = np.empty((self.cap + 1, 4), np.int64)  # per entry: drop, first pair, layer, key
+        self.pairs = np.empty((self.pcap, 2))          # per pair: footprint weight, demand
+        self.pkey = np.empty(self.pcap, np.int64)      # per pair: cell, then key
+        self.touched = np.empty(self.pcap, np.int64)
+        self.dtouched = np.empty(self.pcap, np.int64)
+
+    def _drop_arrays(self):
+        return (self.fa, self.ia, self.fb, self.ib, self.rk, self.ent)
 
     @property
     def grid_bytes(self) -> int:
         return self.sk.nbytes + self.h.nbytes + self.counts.nbytes
 
     @property
+    def bytes_per_drop(self) -> int:
+        """Scratch bytes per drop of capacity: packed rows, sort slots, entries (pairs apart)."""
+        return sum(a.nbytes for a in self._drop_arrays()) // self.cap
+
+    @property
     def nbytes(self) -> int:
-        return self.grid_bytes + sum(a.nbytes for a in (self.fl, self.il, self.pairs, self.pkey,
-                                                        self.touched, self.dtouched))
+        return self.grid_bytes + sum(a.nbytes for a in self._drop_arrays()) + sum(
+            a.nbytes for a in (self.pairs, self.pkey, self.touched, self.dtouched))
 
 
 def bytes_per_cell(n_layers: int) -> int:
-    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort counts)."""
-    return 32 * n_layers + 16
+    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots)."""
+    return 32 * n_layers + 12
 
 
 def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
@@ -98,8 +121,9 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               float(p.stable_speed), int(p.max_age), float(p.speed_ref), float(p.evaporation),
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
-              ow.astype(np.float64), work.sk, work.stamps, work.h, work.counts, work.fl, work.il,
-              work.pairs, work.pkey, work.touched, work.dtouched)
+              ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts, work.fa, work.ia,
+              work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey, work.touched,
+              work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
 
@@ -233,93 +257,79 @@ def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _add(sk, stamp, touched, nt, key, x):
-    """sk[key, 0] += x for this phase (``stamp``): the first touch zeroes the key's columns 0-1
-    and records it, so no pass is needed to clean up afterwards."""
-    if sk[key, 2] != stamp:
-        sk[key, 2] = stamp
-        sk[key, 0] = 0.0
-        sk[key, 1] = 0.0
+def _add(sk, kb, stamp, touched, nt, key, x):
+    """sk[key - kb, 0] += x for this phase (``stamp``): the first touch zeroes the row's columns
+    0-1 and records the key, so no pass is needed to clean up afterwards."""
+    if sk[key - kb, 2] != stamp:
+        sk[key - kb, 2] = stamp
+        sk[key - kb, 0] = 0.0
+        sk[key - kb, 1] = 0.0
         touched[nt] = key
         nt += 1
-    sk[key, 0] += x
+    sk[key - kb, 0] += x
     return nt
 
 
 @njit(cache=True, nogil=True)
-def _lay(nx, ny, L, i, amount, pos, kind, mode, oy, ox, ow, fc, fw, sk, dtouched, nd):
+def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd):
     """Add drop i's deposit of ``amount`` > 0 over its footprint to the deposit column
     sk[:, 3] (zero at rest; only positive terms, so a key is new while its sum is 0)."""
-    if kind[i] < 0:
+    if I[i, KIND] < 0:
         raise AssertionError("a drop carrying sediment has no sediment kind")
-    k = _footprint(pos[i, 0], pos[i, 1], nx, ny, mode, oy, ox, ow, fc, fw, 0)
+    k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, 0)
     for q in range(k):
         x = amount * fw[q]
         if x != 0.0:
-            key = fc[q] * L + kind[i]
-            if sk[key, 3] == 0.0:
+            key = fc[q] * L + I[i, KIND]
+            if sk[key - kb, 3] == 0.0:
                 dtouched[nd] = key
                 nd += 1
-            sk[key, 3] += x
+            sk[key - kb, 3] += x
     return nd
 
 
 @njit(cache=True, nogil=True)
-def _laid(a, thickness, deposit, sk, dtouched, nd):
+def _laid(a, thickness, deposit, sk, kb, dtouched, nd):
     """particles._deposit's ``thickness += bincount(...) / a`` for the keys laid on."""
     tf = thickness.reshape(-1)
     df = deposit.reshape(-1)
     for t in range(nd):
         key = dtouched[t]
-        add = sk[key, 3] / a
+        add = sk[key - kb, 3] / a
         tf[key] += add
         df[key] += add
-        sk[key, 3] = 0.0
+        sk[key - kb, 3] = 0.0
+
+
+@njit(cache=True, nogil=True)
+def _counting_sort(key, n, nb, counts, slot):
+    """slot[r] = rank of r when the r < n with key[r] >= 0 are sorted by key (< nb), then by r;
+    returns how many were placed."""
+    counts[:nb + 1] = 0
+    for r in range(n):
+        if key[r] >= 0:
+            counts[key[r] + 1] += 1
+    for c in range(nb):
+        counts[c + 1] += counts[c]
+    for r in range(n):
+        if key[r] >= 0:
+            slot[r] = counts[key[r]]
+            counts[key[r]] += 1
+    return counts[nb]
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _shift(pos, vel, volume, sediment, kind, moving, age, m, i):
-    """Drop i moves to slot m <= i (compaction keeps the drop order, as ``Drops.take``)."""
-    pos[m, 0] = pos[i, 0]
-    pos[m, 1] = pos[i, 1]
-    vel[m, 0] = vel[i, 0]
-    vel[m, 1] = vel[i, 1]
-    volume[m] = volume[i]
-    sediment[m] = sediment[i]
-    kind[m] = kind[i]
-    moving[m] = moving[i]
-    age[m] = age[i]
+def _copy_row(F, I, o, G, J, j):
+    for q in range(8):
+        G[j, q] = F[o, q]
+        J[j, q] = I[o, q]
 
 
 @njit(cache=True, nogil=True)
-def _sort_by_cell(pos, n, nx, ny, cell, counts, order):
-    """order[:n] = drops sorted by cell, then by index (a counting sort; counts has ncell + 1)."""
-    for i in range(n):
-        cell[i] = _cell_of(pos[i, 0], pos[i, 1], nx, ny)
-    counts[:] = 0
-    for i in range(n):
-        counts[cell[i] + 1] += 1
-    for c in range(nx * ny):
-        counts[c + 1] += counts[c]
-    for i in range(n):
-        order[counts[cell[i]]] = i
-        counts[cell[i]] += 1
-
-
-@njit(cache=True, nogil=True)
-def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drained_sed, path,
-          absorption_rate, capacity, erosion_rate, threshold, roughness, absorbs, erodible,
-          pos, vel, volume, sediment, kind, moving, age, n,
-          gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
-          cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, stamps, h, counts, fl, il, pairs, pkey, touched, dtouched):
-    ncell = ny * nx
+def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h):
+    """particles.release_excess and Surface.height in one pass over the grid."""
     L = thickness.shape[1]
-    a = sp * sp
-    tf = thickness.reshape(-1)
-    hf = held.reshape(-1)
-    # --- release_excess + height (one pass over the grid) -------------------------------------
-    for c in range(ncell):
+    for c in range(ny * nx):
         wet = False
         for l in range(L):
             if held[c, l] != 0:
@@ -337,28 +347,28 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         for l in range(L):
             hc += thickness[c, l]
         h[c] = hc
-    # --- move (drops do not interact while moving: visited by cell, the grid in memory order) ---
-    speed = fl[:, 0]
-    dh = fl[:, 1]
-    cell = il[:, 0]
-    order = il[:, 2]
-    out = il[:, 3]
-    _sort_by_cell(pos, n, nx, ny, cell, counts, order)
+
+
+@njit(cache=True, nogil=True)
+def _move(ny, nx, sp, h, thickness, roughness, F, I, n, gravity, friction, adh_k, max_speed,
+          stable_speed, max_age):
+    """particles.move over the packed drops: new position, velocity, speed, dh, the start cell
+    (CELL) and OUT for drops that left the grid; returns how many left."""
+    L = thickness.shape[1]
     vmax = max_speed * sp
     hi_x = nx * (1 - 1e-12)
     hi_y = ny * (1 - 1e-12)
     nout = 0
-    for o in range(n):
-        i = order[o]
-        dh[i] = 0.0
-        out[i] = 0
-        if not moving[i]:
-            vx = vel[i, 0]
-            vy = vel[i, 1]
-            speed[i] = math.hypot(vx, vy) if (vx != 0.0 or vy != 0.0) else 0.0
+    for i in range(n):
+        F[i, DH] = 0.0
+        I[i, OUT] = 0
+        if not I[i, MOV]:
+            vx = F[i, VX]
+            vy = F[i, VY]
+            F[i, SPD] = math.hypot(vx, vy) if (vx != 0.0 or vy != 0.0) else 0.0
             continue
-        x = pos[i, 0]
-        y = pos[i, 1]
+        x = F[i, X]
+        y = F[i, Y]
         c, fu, fv = _corners(x, y, nx, ny)
         ci = c % nx
         cj = c // nx
@@ -386,12 +396,12 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         cc = _cell_of(x, y, nx, ny)
         top = _top(thickness, cc, L)
         mu = roughness[top] if top >= 0 else 0.0
-        vol = max(volume[i], 1e-300)
+        vol = max(F[i, VOL], 1e-300)
         r = np.cbrt(3.0 * vol / (4.0 * np.pi))
         adh = adh_k / r
         grip = mu * (gravity / math.sqrt(1.0 + s2) + adh)
-        vx = vel[i, 0] * (1.0 - friction) + ax
-        vy = vel[i, 1] * (1.0 - friction) + ay
+        vx = F[i, VX] * (1.0 - friction) + ax
+        vy = F[i, VY] * (1.0 - friction) + ay
         spd = math.hypot(vx, vy)
         keep = 1.0 - grip / spd if spd > grip else 0.0
         vx *= keep
@@ -404,127 +414,125 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
             spd = min(spd, vmax)
         nxp = x + vx / sp
         nyp = y + vy / sp
-        dh[i] = _height_at(h, _clip(nxp, 0.0, hi_x), _clip(nyp, 0.0, hi_y), nx, ny) \
+        F[i, DH] = _height_at(h, _clip(nxp, 0.0, hi_x), _clip(nyp, 0.0, hi_y), nx, ny) \
             - _height_at(h, x, y, nx, ny)
-        ag = age[i] + 1
+        ag = I[i, AGE] + 1
         stop = (spd < stable_speed * sp) and (math.hypot(ax, ay) <= grip)
         if max_age > 0:
             stop = stop or ag >= max_age
-        pos[i, 0] = nxp
-        pos[i, 1] = nyp
-        vel[i, 0] = 0.0 if stop else vx
-        vel[i, 1] = 0.0 if stop else vy
-        age[i] = ag
-        moving[i] = not stop
-        speed[i] = 0.0 if stop else spd
+        F[i, X] = nxp
+        F[i, Y] = nyp
+        F[i, VX] = 0.0 if stop else vx
+        F[i, VY] = 0.0 if stop else vy
+        I[i, AGE] = ag
+        I[i, MOV] = 0 if stop else 1
+        F[i, SPD] = 0.0 if stop else spd
         if nxp < 0 or nxp >= nx or nyp < 0 or nyp >= ny:
-            out[i] = 1
-            cell[i] = cc
+            I[i, OUT] = 1
+            I[i, CELL] = cc
             nout += 1
-    if nout:
-        # drained water and sediment, each summed per cell in drop order, then added
-        stamps[0] += 1.0
-        nt = 0
-        for i in range(n):
-            if out[i]:
-                key = cell[i] * L
-                nt = _add(sk, stamps[0], touched, nt, key, volume[i])
-                sk[key, 1] += sediment[i]
-        for t in range(nt):
-            key = touched[t]
-            drained[key // L] += sk[key, 0]
-            drained_sed[key // L] += sk[key, 1]
-        m = 0
-        for i in range(n):
-            if not out[i]:
-                _shift(pos, vel, volume, sediment, kind, moving, age, m, i)
-                speed[m] = speed[i]
-                dh[m] = dh[i]
-                m += 1
-        n = m
-    # --- the interaction order: by cell, then drop index ---------------------------------------
-    # With the one-cell footprint every key (cell, layer) only hears drops of its own cell, so
-    # this order sums each key's terms in drop order (as np.bincount does) while the grid is
-    # walked in memory order; wider footprints keep the drop order.
-    top_a = il[:, 1]
-    _sort_by_cell(pos, n, nx, ny, cell, counts, order)
-    for o in range(n):
-        i = order[o]
-        c = cell[i]
-        top_a[i] = _top(thickness, c, L)
-        if moving[i]:
+    return nout
+
+
+@njit(cache=True, nogil=True)
+def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
+    kb = 0
+    """Drained water and sediment of the drops that left, summed per start cell in drop order
+    (the packed drops are in (start cell, drop) order, or in drop order), then added."""
+    stamps[0] += 1.0
+    nt = 0
+    for i in range(n):
+        if I[i, OUT]:
+            key = I[i, CELL] * L
+            nt = _add(sk, kb, stamps[0], touched, nt, key, F[i, VOL])
+            sk[key - kb, 1] += F[i, SED]
+    for t in range(nt):
+        key = touched[t]
+        drained[key // L] += sk[key - kb, 0]
+        drained_sed[key // L] += sk[key - kb, 1]
+
+
+@njit(cache=True, nogil=True)
+def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
+              erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
+              deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
+              ow, sk, kb, stamps, h, ent, pairs, pkey, touched, dtouched, lo, hi):
+    """particles.interact (and the path count) over the packed drops lo..hi-1, with the key sums
+    in rows key - kb of ``sk``.  The caller passes either all drops in drop order with the grid's
+    rows (kb = 0), or, with the one-cell footprint, the drops of one cell (in drop order) with a
+    few rows of its own (kb = cell * L): no other cell's keys are heard, so running all phases
+    one cell at a time changes no number while each cell's rows stay in cache.  Empty drops are
+    left in place with volume 0 (the caller drops them)."""
+    L = thickness.shape[1]
+    a = sp * sp
+    tf = thickness.reshape(-1)
+    hf = held.reshape(-1)
+    for i in range(lo, hi):
+        c = I[i, CELL]
+        I[i, TOP] = _top(thickness, c, L)
+        if I[i, MOV]:
             path[c] += 1.0
-    if mode != 0:
-        for i in range(n):
-            order[i] = i
-    if n == 0:
-        _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
-        return 0
-    fc = pkey[:, 1]
+    fc = pkey
     fw = pairs[:, 0]
-    # --- interact: absorption (demand per key, grant, deposition by concentration) ----------------
+    # --- absorption (demand per key, grant, deposition by concentration) ---------------------
     stamps[0] += 1.0
     st = stamps[0]
     nt = 0
     na = 0
-    ent = pkey[:, 0]
-    for o in range(n):
-        i = order[o]
-        tp = top_a[i]
+    for i in range(lo, hi):
+        tp = I[i, TOP]
         tk = max(tp, 0)
-        if not (tp >= 0 and absorbs[tk] and volume[i] > 0):
+        if not (tp >= 0 and absorbs[tk] and F[i, VOL] > 0):
             continue
-        c = cell[i]
+        c = I[i, CELL]
         cap = capacity[tk] * thickness[c, tk] * a
         w = held[c, tk]
         sat = _clip(w / cap, 0.0, 1.0) if cap > 0 else 1.0
-        demand = volume[i] * absorption_rate[tk] * (1.0 - sat) / (1.0 + speed[i] / speed_ref)
+        demand = F[i, VOL] * absorption_rate[tk] * (1.0 - sat) / (1.0 + F[i, SPD] / speed_ref)
         key = c * L + tk
         pairs[na, 1] = demand
-        ent[na] = i
-        il[na, 3] = key
+        ent[na, 0] = i
+        ent[na, 3] = key
         na += 1
-        nt = _add(sk, st, touched, nt, key, demand)
+        nt = _add(sk, kb, st, touched, nt, key, demand)
     if na:
         for t in range(nt):                       # per key: the granted total, into held
             key = touched[t]
             c = key // L
             l = key % L
             cap = capacity[l] * thickness[c, l] * a
-            got = min(sk[key, 0], max(cap - held[c, l], 0.0))
-            sk[key, 1] = got
-            if sk[key, 0] > 0:
+            got = min(sk[key - kb, 0], max(cap - held[c, l], 0.0))
+            sk[key - kb, 1] = got
+            if sk[key - kb, 0] > 0:
                 hf[key] += got
         nd = 0
         for e in range(na):
-            i = ent[e]
-            key = il[e, 3]
-            tk_ = sk[key, 0]
-            g = pairs[e, 1] * (sk[key, 1] / tk_) if tk_ > 0 else 0.0
-            v_old = volume[i]
-            volume[i] = max(v_old - g, 0.0)
+            i = ent[e, 0]
+            key = ent[e, 3]
+            tk_ = sk[key - kb, 0]
+            g = pairs[e, 1] * (sk[key - kb, 1] / tk_) if tk_ > 0 else 0.0
+            v_old = F[i, VOL]
+            F[i, VOL] = max(v_old - g, 0.0)
             frac = g / v_old if v_old > 0 else 0.0
-            dep = sediment[i] if volume[i] <= 0 else sediment[i] * frac
+            dep = F[i, SED] if F[i, VOL] <= 0 else F[i, SED] * frac
             if dep > 0:
-                nd = _lay(nx, ny, L, i, dep, pos, kind, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
-                sediment[i] -= dep
-        _laid(a, thickness, deposit, sk, dtouched, nd)
-    # --- erosion by moving drops ------------------------------------------------------------------
+                nd = _lay(nx, ny, L, i, dep, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd)
+                F[i, SED] -= dep
+        _laid(a, thickness, deposit, sk, kb, dtouched, nd)
+    # --- erosion by moving drops --------------------------------------------------------------
     stamps[0] += 1.0
     st = stamps[0]
     nt = 0
     kk = 0
     ne = 0
     pdem = pairs[:, 1]
-    first = il[:, 3]
-    for o in range(n):
-        i = order[o]
-        if not ((moving[i] or erode_stabilised) and volume[i] > 0):
+    for i in range(lo, hi):
+        if not ((I[i, MOV] or erode_stabilised) and F[i, VOL] > 0):
             continue
-        cd = kind[i] if kind[i] >= 0 else top_a[i]
+        cd = I[i, KIND] if I[i, KIND] >= 0 else I[i, TOP]
         if not (cd >= 0 and erodible[cd]):
             continue
-        k = _footprint(pos[i, 0], pos[i, 1], nx, ny, mode, oy, ox, ow, fc, fw, kk)
+        k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, kk)
         per_drop = 0.0
         for q in range(kk, kk + k):
             pc = fc[q]
@@ -533,49 +541,49 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
             sat = hd / cap if cap > 0 else 1.0
             th = threshold[cd]
             weak = max(sat - th, 0.0) / (1.0 - th) if th < 1.0 else 0.0
-            liquid = volume[i] + hd
+            liquid = F[i, VOL] + hd
             if _top(thickness, pc, L) == cd and fw[q] > 0:
                 pdem[q] = fw[q] * erosion_rate[cd] * weak * liquid
             else:
                 pdem[q] = 0.0
             per_drop += pdem[q]
-        rm = max_concentration * volume[i] - sediment[i]
+        rm = max_concentration * F[i, VOL] - F[i, SED]
         if cap_k >= 0:
-            gx, gy = _grad(h, cell[i], nx, ny, sp)
+            gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
             slope = math.hypot(gx, gy)
-            capd = cap_k * volume[i] * speed[i] * max(slope, min_slope)
-            capd = capd * (_clip(1.0 - age[i] / max_age, 0.0, 1.0) if fade else 1.0)
-            rm = min(rm, capd - sediment[i])
-            rm = min(rm, max(-dh[i], 0.0) * a)
+            capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
+            capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
+            rm = min(rm, capd - F[i, SED])
+            rm = min(rm, max(-F[i, DH], 0.0) * a)
         rm = max(rm, 0.0)
         lim = rm / per_drop if per_drop > rm else 1.0
         for q in range(kk, kk + k):
             pdem[q] *= lim
             key = fc[q] * L + cd
             fc[q] = key
-            nt = _add(sk, st, touched, nt, key, pdem[q])
-        ent[ne] = i
-        first[ne] = kk
-        fl[ne, 2] = cd
+            nt = _add(sk, kb, st, touched, nt, key, pdem[q])
+        ent[ne, 0] = i
+        ent[ne, 1] = kk
+        ent[ne, 2] = cd
         ne += 1
         kk += k
-    first[ne] = kk
+    ent[ne, 1] = kk
     if ne:
         # per key: what is removed; then sk[:, 0] = got / total, sk[:, 1] = removed / got,
         # sk[:, 3] = water released per removed volume (reset below)
         nrel = 0
+        df = deposit.reshape(-1)
         for t in range(nt):
             key = touched[t]
-            tot = sk[key, 0]
+            tot = sk[key - kb, 0]
             got = min(tot, max(tf[key] * a, 0.0)) if tot > 0 else 0.0
-            sk[key, 0] = got / tot if tot > 0 else 0.0
+            sk[key - kb, 0] = got / tot if tot > 0 else 0.0
             corr = 0.0
             if got > 0:
                 t_old = tf[key]
                 t_new = max(t_old - got / a, 0.0)
                 actual = (t_old - t_new) * a
                 tf[key] = t_new
-                df = deposit.reshape(-1)
                 df[key] = max(df[key] - (t_old - t_new), 0.0)
                 corr = actual / got
                 c = key // L
@@ -584,57 +592,140 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                 excess = max(hf[key] - capn, 0.0) if actual > 0 else 0.0
                 if excess > 0:
                     hf[key] -= excess
-                    sk[key, 3] = excess / (actual if actual > 0 else 1.0)
+                    sk[key - kb, 3] = excess / (actual if actual > 0 else 1.0)
                     dtouched[nrel] = key
                     nrel += 1
-            sk[key, 1] = corr
+            sk[key - kb, 1] = corr
         for e in range(ne):
-            i = ent[e]
+            i = ent[e, 0]
             taken = 0.0
             back = 0.0
-            for q in range(first[e], first[e + 1]):
+            for q in range(ent[e, 1], ent[e + 1, 1]):
                 key = fc[q]
-                g = pdem[q] * sk[key, 0] * sk[key, 1]
+                g = pdem[q] * sk[key - kb, 0] * sk[key - kb, 1]
                 taken += g
-                back += g * sk[key, 3]
-            sediment[i] += taken
-            volume[i] += back
+                back += g * sk[key - kb, 3]
+            F[i, SED] += taken
+            F[i, VOL] += back
             if taken > 0:
-                kind[i] = int(fl[e, 2])
+                I[i, KIND] = ent[e, 2]
         for t in range(nrel):
-            sk[dtouched[t], 3] = 0.0
-    # --- deposition beyond the capacity -------------------------------------------------------------
+            sk[dtouched[t] - kb, 3] = 0.0
+    # --- deposition beyond the capacity -------------------------------------------------------
     if cap_k >= 0:
         nd = 0
-        for o in range(n):
-            i = order[o]
-            gx, gy = _grad(h, cell[i], nx, ny, sp)
+        for i in range(lo, hi):
+            gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
             slope = math.hypot(gx, gy)
-            capd = cap_k * volume[i] * speed[i] * max(slope, min_slope)
-            capd = capd * (_clip(1.0 - age[i] / max_age, 0.0, 1.0) if fade else 1.0)
-            extra = max(sediment[i] - capd, 0.0) * deposition_rate
-            if not moving[i]:
-                extra = sediment[i]
-            extra = max(extra, min(max(dh[i], 0.0) * a, sediment[i]))
+            capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
+            capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
+            extra = max(F[i, SED] - capd, 0.0) * deposition_rate
+            if not I[i, MOV]:
+                extra = F[i, SED]
+            extra = max(extra, min(max(F[i, DH], 0.0) * a, F[i, SED]))
             if extra > 0:
-                nd = _lay(nx, ny, L, i, extra, pos, kind, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
-                sediment[i] -= extra
-        _laid(a, thickness, deposit, sk, dtouched, nd)
-    # --- empty drops lay what they carry and leave ----------------------------------------------------
+                nd = _lay(nx, ny, L, i, extra, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd)
+                F[i, SED] -= extra
+        _laid(a, thickness, deposit, sk, kb, dtouched, nd)
+    # --- empty drops lay what they carry ------------------------------------------------------
     nd = 0
+    for i in range(lo, hi):
+        if not F[i, VOL] > 0 and F[i, SED] > 0:
+            s_ = F[i, SED]
+            nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd)
+            F[i, SED] -= s_
+    _laid(a, thickness, deposit, sk, kb, dtouched, nd)
+
+
+@njit(cache=True, nogil=True)
+def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drained_sed, path,
+          absorption_rate, capacity, erosion_rate, threshold, roughness, absorbs, erodible,
+          pos, vel, volume, sediment, kind, moving, age, n0,
+          gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
+          cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
+          oy, ox, ow, sk, cell_sk, stamps, h, counts, fa, ia, fb, ib, rk, ent, pairs, pkey,
+          touched, dtouched):
+    L = thickness.shape[1]
+    nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
+    key = rk[:, 0]
+    slot = rk[:, 1]
+    _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h)
+    # --- pack the drops, sorted by start cell -------------------------------------------------
+    for r in range(n0):
+        key[r] = _cell_of(pos[r, 0], pos[r, 1], nx, ny) if mode == 0 else 0
+    _counting_sort(key, n0, nb, counts, slot)
+    for r in range(n0):
+        o = slot[r]
+        fa[o, X] = pos[r, 0]
+        fa[o, Y] = pos[r, 1]
+        fa[o, VX] = vel[r, 0]
+        fa[o, VY] = vel[r, 1]
+        fa[o, VOL] = volume[r]
+        fa[o, SED] = sediment[r]
+        ia[o, KIND] = kind[r]
+        ia[o, MOV] = moving[r]
+        ia[o, AGE] = age[r]
+        ia[o, RANK] = r
+    # --- move, drain ----------------------------------------------------------------------------
+    nout = _move(ny, nx, sp, h, thickness, roughness, fa, ia, n0, gravity, friction, adh_k,
+                 max_speed, stable_speed, max_age)
+    if nout:
+        _drain(fa, ia, n0, L, sk, stamps, touched, drained, drained_sed)
+    # --- repack the drops still on the grid, sorted by end cell then drop index -----------------
+    for o in range(n0):
+        r = ia[o, RANK]
+        if ia[o, OUT]:
+            key[r] = -1
+        else:
+            c = _cell_of(fa[o, X], fa[o, Y], nx, ny)
+            ia[o, CELL] = c
+            key[r] = c if mode == 0 else 0
+    n = _counting_sort(key, n0, nb, counts, slot)
+    for o in range(n0):
+        if not ia[o, OUT]:
+            _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
+    # --- interact ---------------------------------------------------------------------------------
+    if mode == 0:                   # one cell at a time, its keys in the few rows of ``cell_sk``
+        lo = 0
+        while lo < n:
+            c = ib[lo, CELL]
+            hi = lo + 1
+            while hi < n and ib[hi, CELL] == c:
+                hi += 1
+            _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
+                      erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k,
+                      min_slope, deposition_rate, max_concentration, erode_stabilised, max_age,
+                      fade, mode, oy, ox, ow, cell_sk, c * L, stamps, h, ent, pairs, pkey,
+                      touched, dtouched, lo, hi)
+            lo = hi
+    else:
+        _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
+                  erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
+                  deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
+                  ox, ow, sk, 0, stamps, h, ent, pairs, pkey, touched, dtouched, 0, n)
+    # --- the drops with water back into the caller's arrays, in drop order ----------------------
+    for r in range(n0):
+        key[r] = -1
     for o in range(n):
-        i = order[o]
-        if not volume[i] > 0 and sediment[i] > 0:
-            s_ = sediment[i]
-            nd = _lay(nx, ny, L, i, s_, pos, kind, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
-            sediment[i] -= s_
-    _laid(a, thickness, deposit, sk, dtouched, nd)
+        if fb[o, VOL] > 0:
+            key[ib[o, RANK]] = 0
     m = 0
-    for i in range(n):
-        if volume[i] > 0:
-            _shift(pos, vel, volume, sediment, kind, moving, age, m, i)
-            sediment[m] = max(sediment[m], 0.0)
+    for r in range(n0):
+        if key[r] >= 0:
+            slot[r] = m
             m += 1
+    for o in range(n):
+        if fb[o, VOL] > 0:
+            j = slot[ib[o, RANK]]
+            pos[j, 0] = fb[o, X]
+            pos[j, 1] = fb[o, Y]
+            vel[j, 0] = fb[o, VX]
+            vel[j, 1] = fb[o, VY]
+            volume[j] = fb[o, VOL]
+            sediment[j] = max(fb[o, SED], 0.0)
+            kind[j] = ib[o, KIND]
+            moving[j] = ib[o, MOV] != 0
+            age[j] = ib[o, AGE]
     _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
     return m
 
