@@ -17,22 +17,16 @@ from procgen import InputError
 from procgen.plugins import get_plugin_manager
 from procgen.testing import drive_rule, run_example
 from procgen_cracks.peel import Peel
-from procgen_layers.materials import parse_materials
-from procgen_layers.stack import put_thickness, store_table
 from procgen_surface.domain import SurfaceCells
 from procgen_surface.exporters import surface_glb, surface_obj, surface_png
+from test_peel_render import flat_cells
 
 LIFT = 0.03
 
 
-def flat_square(size: float = 0.05) -> SurfaceCells:
-    """A flat unit square (z = 0) of cells, copper under paint, a raised plateau in the middle."""
-    v = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]], float)
-    sc = SurfaceCells.from_mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), cell_size=size)
-    table = parse_materials([{"name": "copper", "color": [0.8, 0.45, 0.2], "opacity": 0.99},
-                             {"name": "paint", "color": [0.5, 0.5, 0.5], "opacity": 0.99}])
-    store_table(sc, table)
-    put_thickness(sc, np.tile([1.0, 0.5], (sc.n_cells, 1)), table)
+def flat_square() -> SurfaceCells:
+    """The flat unit square of cells (copper under paint) with a raised plateau in the middle."""
+    sc = flat_cells()
     x, y = sc.center3d[:, 0], sc.center3d[:, 1]
     sc.add_field("peel__lift", np.where((np.abs(x) < 0.2) & (np.abs(y) < 0.2), LIFT, 0.0),
                  at="cell", units="length")
