@@ -19,9 +19,11 @@ from procgen.exchange.svg import finish, fmt_number, new_drawing, path_data
 from procgen_layers.light import layer_weights, through_layers
 from procgen_layers.stack import load_table
 
-from .lift import lift_shading
+from procgen_surface.relief import relief_shading
 
 THICKNESS = "layers__thickness"
+#: the partial-peeling elevation of cracks.peel (thesis 5.3.3, Figure 5.30), drawn as relief
+LIFT = "peel__lift"
 #: default direction towards the light for the baked lift shading (above, front left)
 LIGHT = (-0.4, -0.5, 0.77)
 
@@ -43,10 +45,16 @@ def texel_colors(sc: Any, *, layer: int = -1, shadow: float = 0.7, highlight: fl
 
     ``shadow`` / ``highlight``: how much a full crack-mirror band darkens / lightens the layer
     under the cracked one (before the glaze above it filters the change).  Cells lifted by partial
-    peeling (``peel__lift``) are shaded by :func:`procgen_cracks.lift.lift_shading` (``light``
-    towards the light, ``lift_relief`` slope exaggeration, ``lift_rim`` darkest rim).
+    peeling (``peel__lift``, thesis Figure 5.30) are shaded as a relief (procgen_surface.relief:
+    ``light`` towards the light, ``lift_relief`` slope exaggeration, ``lift_rim`` darkest rim),
+    since the texture is baked once for every view.
     """
-    lit = lift_shading(sc, light=light, relief=lift_relief, rim=lift_rim)
+    lv = np.asarray(light, float)
+    if lv.shape != (3,) or not np.linalg.norm(lv) > 0 or lift_relief < 0 or not 0.0 <= lift_rim <= 1.0:
+        raise InputError(f"crack export: need a non-zero 3-vector light (towards the light), "
+                         f"lift_relief >= 0 and lift_rim in [0, 1]; got {light}, {lift_relief}, {lift_rim}")
+    lift = np.asarray(sc[LIFT], float) if LIFT in sc else None
+    lit = relief_shading(sc, lift, light=lv, slope=lift_relief, rim=lift_rim)
     table = load_table(sc, "crack export")
     t = np.asarray(sc[THICKNESS], float)
     n_layers = t.shape[1]
@@ -81,18 +89,23 @@ def texel_colors(sc: Any, *, layer: int = -1, shadow: float = 0.7, highlight: fl
 
 
 def _build(sc: Any, *, cells_per_segment: float, exaggerate: float, max_triangles: int,
-           **texels: Any):
+           lift_scale: float, **texels: Any):
+    """Mesh and atlas; the lifted paint also raised as geometry (``lift_scale`` times peel__lift,
+    its rim already in the texels)."""
     from procgen_surface.exporters import build_export
 
     rgb = texel_colors(sc, **texels)
     return build_export(sc, color_by="layers", cells_per_segment=cells_per_segment,
-                        exaggerate=exaggerate, max_triangles=max_triangles, texel_rgb=rgb)
+                        exaggerate=exaggerate, max_triangles=max_triangles, texel_rgb=rgb,
+                        relief=LIFT if LIFT in sc else "", relief_scale=lift_scale, relief_rim=0.0,
+                        fmt="crack export")
 
 
 def crack_obj(domain: Any, *, stem: str, provenance: dict | None = None, layer: int = -1,
               shadow: float = 0.7, highlight: float = 0.6, cells_per_segment: float = 4.0,
               exaggerate: float = 0.02, max_triangles: int = 1_500_000,
-              light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5) -> dict[str, bytes]:
+              light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5,
+              lift_scale: float = 1.0) -> dict[str, bytes]:
     """OBJ + MTL + PNG atlas (one texel per micro-cell): the lower layer shows through cracks."""
     from procgen_surface.export_mesh import obj_files
 
@@ -100,14 +113,15 @@ def crack_obj(domain: Any, *, stem: str, provenance: dict | None = None, layer: 
     mesh, atlas = _build(sc, layer=layer, shadow=shadow, highlight=highlight,
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
                          max_triangles=max_triangles, light=light, lift_relief=lift_relief,
-                         lift_rim=lift_rim)
+                         lift_rim=lift_rim, lift_scale=lift_scale)
     return obj_files(mesh, atlas, name=stem.rsplit("/", 1)[-1], provenance=provenance)
 
 
 def crack_glb(domain: Any, *, stem: str = "", provenance: dict | None = None, layer: int = -1,
               shadow: float = 0.7, highlight: float = 0.6, cells_per_segment: float = 4.0,
               exaggerate: float = 0.02, max_triangles: int = 1_500_000,
-              light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5) -> bytes:
+              light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5,
+              lift_scale: float = 1.0) -> bytes:
     """Binary glTF of the same textured mesh."""
     from procgen_surface.export_mesh import glb_bytes
 
@@ -115,7 +129,7 @@ def crack_glb(domain: Any, *, stem: str = "", provenance: dict | None = None, la
     mesh, atlas = _build(sc, layer=layer, shadow=shadow, highlight=highlight,
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
                          max_triangles=max_triangles, light=light, lift_relief=lift_relief,
-                         lift_rim=lift_rim)
+                         lift_rim=lift_rim, lift_scale=lift_scale)
     return glb_bytes(mesh, atlas, provenance)
 
 
@@ -124,7 +138,7 @@ def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, la
               azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True,
               cells_per_segment: float = 4.0, exaggerate: float = 0.02,
               max_triangles: int = 400_000, light: tuple[float, ...] = LIGHT,
-              lift_relief: float = 1.0, lift_rim: float = 0.5) -> bytes:
+              lift_relief: float = 1.0, lift_rim: float = 0.5, lift_scale: float = 1.0) -> bytes:
     """Fixed-camera preview of the textured mesh, the texture sampled per pixel (micro-cells)."""
     from procgen.exchange.glb import mesh_for_export
     from procgen.exchange.preview import render_mesh_png
@@ -136,7 +150,7 @@ def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, la
     mesh, atlas = _build(sc, layer=layer, shadow=shadow, highlight=highlight,
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
                          max_triangles=max_triangles, light=light, lift_relief=lift_relief,
-                         lift_rim=lift_rim)
+                         lift_rim=lift_rim, lift_scale=lift_scale)
     tm = mesh_for_export(as_trimesh(mesh, atlas), uv_field="surface__uv", texture_field="surface__texture")
     return render_mesh_png(tm, (width, height), azimuth=azimuth, elevation=elevation, up=up, lit=lit)
 

@@ -33,7 +33,7 @@ from procgen.ca.automaton import CellAutomaton
 from procgen.ca.cells import NEIGHBOURHOODS, cell_values, put_cell_values
 from procgen.ca.components import connected_components, hop_distance
 from procgen.ca.graph import CellGraph
-from procgen_layers.stack import THICKNESS, load_table, put_thickness
+from procgen_layers.stack import THICKNESS, cell_areas, load_table, put_thickness
 
 CELLS = "{cells}"
 #: data views: cells whose layer has peeled
@@ -131,6 +131,14 @@ def _crack_times(graph: CellGraph, cracked: np.ndarray, time: np.ndarray, n_step
         todo &= ~hit
     if n_steps > 0:
         time[todo] = n_steps - 1
+
+
+def _areas(dom: Any, n: int) -> np.ndarray:
+    """Cell areas where the domain gives them (Grid, surface cells), else one per cell."""
+    try:
+        return cell_areas(dom)
+    except InputError:
+        return np.ones(n)
 
 
 def deaden(pc: np.ndarray, height: float, kind: str) -> np.ndarray:
@@ -241,6 +249,10 @@ class Peel(CellAutomaton):
         state.report("peel.intact_cells", int(((p.group >= 0) & ~peeling[np.maximum(p.group, 0)]).sum()))
         state.report("peel.sharp_links", int((~keep).sum()))
         state.report("peel.deepest_level", p.passes)
+        self._area = np.where(peelable, _areas(dom, graph.n_cells), 0.0)
+        sizes = np.bincount(p.group[p.group >= 0], self._area[p.group >= 0], minlength=len(p.depth))
+        state.report("peel.largest_group_share", float(sizes.max(initial=0.0) / max(sizes.sum(), 1e-300)))
+        state.report("peel.exposed_share", 0.0)
         put_cell_values(dom, "peel__time", np.full(graph.n_cells, -1, np.int64), units="steps")
         self._rgb: np.ndarray | None = None
         self._grown(dom, 0 if self.grow else p.passes)
@@ -288,5 +300,8 @@ class Peel(CellAutomaton):
         put_thickness(dom, thick, load_table(dom))
         t = np.where(now, state.iteration, cell_values(dom, "peel__time"))
         put_cell_values(dom, "peel__time", t, units="steps")
+        # area share of the layer gone so far (the layer beneath shows; residue on cracks counts)
+        gone = (t >= 0) & (thick[:, self._li] <= 0)
+        state.report("peel.exposed_share", float(self._area[gone].sum() / max(self._area.sum(), 1e-300)))
         self._peeled(dom, now)
         return True

@@ -14,6 +14,7 @@ from procgen_layers.rules import cell_stack_colors
 from procgen_layers.stack import has_stack
 
 from .domain import SurfaceCells
+from .relief import check_relief_options, relief_shading, relief_values
 from .shading import label_colors
 from .export_mesh import (DisplacedMesh, displaced_mesh, glb_bytes, obj_files, pack_atlas,
                           subdivision_level)
@@ -43,10 +44,13 @@ def _check(domain: Any, fmt: str) -> SurfaceCells:
     return domain
 
 
-def _heights(sc: SurfaceCells) -> np.ndarray:
+def _heights(sc: SurfaceCells, exaggerate: float, relief: np.ndarray | None = None,
+             relief_scale: float = 1.0) -> np.ndarray:
+    """Displacement per cell: ``exaggerate`` times the stacked thickness, plus the relief."""
+    h = np.zeros(sc.n_cells)
     if "layers__thickness" in sc:
-        return np.asarray(sc["layers__thickness"], float).sum(axis=1)
-    return np.zeros(sc.n_cells)
+        h = exaggerate * np.asarray(sc["layers__thickness"], float).sum(axis=1)
+    return h if relief is None else h + relief_scale * relief
 
 
 def _colors(sc: SurfaceCells, field: str) -> np.ndarray:
@@ -71,35 +75,50 @@ def _colors(sc: SurfaceCells, field: str) -> np.ndarray:
 def build_export(sc: SurfaceCells, *, color_by: str = "surface__color", texels: int = 2,
                  cells_per_segment: float = 4.0, exaggerate: float = 0.02,
                  max_triangles: int = 1_500_000, textured: bool = True,
-                 texel_rgb: np.ndarray | None = None):
+                 texel_rgb: np.ndarray | None = None, relief: str = "",
+                 relief_scale: float = 1.0, relief_rim: float = 0.5, fmt: str = "surface export"):
     """(DisplacedMesh, Atlas | None) of a SurfaceCells domain.
 
     ``texel_rgb`` (n, t, t, 3): per-texel colours painted into the atlas instead of the cells'
-    flat colours (t texels per cell side), e.g. the crack family's micro-cells.
+    flat colours (t texels per cell side), e.g. the crack family's micro-cells.  ``relief``: a
+    cell field (length) moving each cell's surface along its normal by ``relief_scale`` times
+    the field, with the rim beside raised cells baked into the colours (procgen_surface.relief).
     """
     if texels < 1 or texels > 16:
-        raise InputError(f"surface export: texels must be in 1..16, got {texels}")
+        raise InputError(f"{fmt}: texels must be in 1..16, got {texels}")
     if cells_per_segment <= 0:
-        raise InputError("surface export: cells_per_segment must be > 0")
+        raise InputError(f"{fmt}: cells_per_segment must be > 0")
+    check_relief_options(fmt, relief_scale, relief_rim)
+    lift = relief_values(sc, relief, fmt)
     rgb = _colors(sc, color_by)
+    rim = relief_shading(sc, lift, light=None, slope=0.0, rim=relief_rim)
+    if rim is not None:
+        rgb = rgb * rim[:, None]
+        if texel_rgb is not None:
+            texel_rgb = texel_rgb * rim[:, None, None, None]
     alive = sc.alive()
     if texel_rgb is not None:
         atlas = pack_atlas(sc, texel_rgb, alive, texels=texel_rgb.shape[1])
     else:
         atlas = pack_atlas(sc, rgb, alive, texels=texels) if textured else None
     level = subdivision_level(sc, cells_per_segment, max_triangles)
-    mesh = displaced_mesh(sc, _heights(sc), rgb, alive, atlas, level=level, exaggerate=exaggerate)
+    mesh = displaced_mesh(sc, _heights(sc, exaggerate, lift, relief_scale), rgb, alive, atlas,
+                          level=level)
     return mesh, atlas
 
 
 def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, vertex_colors: bool = False,
-                textured: bool = True, max_triangles: int = 1_500_000) -> dict[str, bytes]:
-    """OBJ + MTL + PNG atlas of the cells, displaced by the stacked layer thickness."""
+                textured: bool = True, max_triangles: int = 1_500_000, relief: str = "",
+                relief_scale: float = 1.0, relief_rim: float = 0.5) -> dict[str, bytes]:
+    """OBJ + MTL + PNG atlas of the cells, displaced by the stacked layer thickness (and a
+    ``relief`` cell field, see procgen_surface.relief)."""
     sc = _check(domain, "surface_obj")
     mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
-                               exaggerate=exaggerate, max_triangles=max_triangles, textured=textured)
+                               exaggerate=exaggerate, max_triangles=max_triangles, textured=textured,
+                               relief=relief, relief_scale=relief_scale, relief_rim=relief_rim,
+                               fmt="surface_obj")
     name = stem.rsplit("/", 1)[-1]
     return obj_files(mesh, atlas, name=name, provenance=provenance, vertex_colors=vertex_colors)
 
@@ -107,11 +126,14 @@ def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
 def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, textured: bool = True,
-                max_triangles: int = 1_500_000) -> bytes:
+                max_triangles: int = 1_500_000, relief: str = "", relief_scale: float = 1.0,
+                relief_rim: float = 0.5) -> bytes:
     """Binary glTF of the same displaced, textured mesh (vertex colours if not textured)."""
     sc = _check(domain, "surface_glb")
     mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
-                               exaggerate=exaggerate, max_triangles=max_triangles, textured=textured)
+                               exaggerate=exaggerate, max_triangles=max_triangles, textured=textured,
+                               relief=relief, relief_scale=relief_scale, relief_rim=relief_rim,
+                               fmt="surface_glb")
     return glb_bytes(mesh, atlas, provenance)
 
 
@@ -121,7 +143,8 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 light_azimuth: float | None = None, light_elevation: float = 50.0,
                 cells_per_segment: float = 4.0, exaggerate: float = 0.02,
                 max_triangles: int = 400_000, background: list[int] | None = None,
-                antialias: int = 1, relight: bool = True) -> bytes:
+                antialias: int = 1, relight: bool = True, relief: str = "",
+                relief_scale: float = 1.0, relief_rim: float = 0.5, relief_slope: float = 1.0) -> bytes:
     """Preview PNG from a fixed camera, coloured per pixel by the cell under it.
 
     ``color_by='layers'`` is the thesis rendering: Phong per layer (eye = the camera) then light
@@ -130,7 +153,10 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     with ``relight = false`` (a field already lit, e.g. by ``layers.shade`` with its own lights).
     ``antialias = k``: the thesis's fake anti-aliasing (App. B 3, plate B.1): k x k renders with
     the camera moved by less than one pixel (so no point leaves its pixel, no blur) averaged,
-    which softens the staircase of the cell borders.
+    which softens the staircase of the cell borders.  ``relief``: a cell field (length) raising
+    the cells along their normals (``relief_scale`` times it), drawn with the slope shading
+    towards the preview's light (``relief_slope`` exaggerates) and the dark rim beside raised
+    cells (``relief_rim``), as procgen_surface.relief describes.
     """
     from procgen.exchange.preview import encode_image, project
 
@@ -139,6 +165,8 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
         raise InputError(f"surface_png: up must be x, y or z, got {up!r}")
     if not 1 <= int(antialias) <= 8:
         raise InputError(f"surface_png: antialias must be 1..8 (renders per axis), got {antialias!r}")
+    check_relief_options("surface_png", relief_scale, relief_rim, relief_slope)
+    lift = relief_values(sc, relief, "surface_png")
     eye, right, sup = camera_basis(azimuth, elevation, up)
     if color_by == "layers":
         if light_azimuth is None:
@@ -150,15 +178,18 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
         lambert = None
     else:
         rgb = _colors(sc, color_by)
-        lambert = 0.45 * right + 0.6 * sup + 0.66 * eye if relight else None
-        if lambert is not None:
-            lambert /= np.linalg.norm(lambert)
+        light = 0.45 * right + 0.6 * sup + 0.66 * eye
+        light /= np.linalg.norm(light)
+        lambert = light if relight else None
+    shade = relief_shading(sc, lift, light=light, slope=relief_slope, rim=relief_rim)
+    if shade is not None:
+        rgb = rgb * shade[:, None]
     alive = sc.alive()
     if not alive.all():             # holes: triangles about one cell wide, so the far side shows
         cells_per_segment = min(cells_per_segment, 1.0)
     level = subdivision_level(sc, cells_per_segment, max_triangles)
-    mesh: DisplacedMesh = displaced_mesh(sc, _heights(sc), rgb, alive, None, level=level,
-                                         exaggerate=exaggerate)
+    mesh: DisplacedMesh = displaced_mesh(sc, _heights(sc, exaggerate, lift, relief_scale), rgb,
+                                         alive, None, level=level)
     proj = project(mesh.vertices, (width, height), azimuth=azimuth, elevation=elevation, up=up)
     bg = tuple(int(c) for c in (background or (255, 255, 255)))
     k = int(antialias)
