@@ -176,17 +176,20 @@ def test_splats_cover_a_curved_network_without_speckles():
 
 
 def test_normals_get_one_side_whatever_the_winding_and_melting_keeps_it():
-    """Figure 8's pyramid from polygons of mixed winding: after linking every normal points out
-    (the same normals from every decomposition), and melting across the folds keeps them out
+    """Figure 8's pyramid from polygons of any winding: every normal points out (the same normals
+    from every decomposition and every winding), and melting across the folds keeps them out
     (averaging an inward with an outward normal across a fold stood splats on edge: streaks)."""
     from procgen import check_recipe, get_plugin_manager, run
     from _cellnet import pyramid_variants
-    from procgen_cellnet.orientation import orient_normals
 
     host = get_plugin_manager()
     base = np.array([2.0, 2.0, 0.5])
+    rng = np.random.default_rng(0)
+    variants = list(pyramid_variants())
+    # the concave variant again with every loop's winding reversed at random
+    variants.append([[lp[::-1] if rng.random() < 0.5 else lp for lp in poly] for poly in variants[2]])
     nets = []
-    for polys in pyramid_variants():
+    for polys in variants:
         steps = [{"rule": "cellnet.polygons", "params": {"polygons": polys}},
                  {"rule": "cellnet.seed", "params": {"grid": "square8", "cs": 0.2}},
                  {"rule": "cellnet.link"}]
@@ -197,13 +200,29 @@ def test_normals_get_one_side_whatever_the_winding_and_melting_keeps_it():
         order = np.lexsort(np.round(net.positions / 1e-7).T[::-1])
         nets.append(n[order])
     assert all(n.shape == nets[0].shape and np.abs(n - nets[0]).max() < 1e-12 for n in nets[1:])
-    # random flips are undone: the orientation depends on the geometry only
-    net_p = net.positions
-    flips = np.random.default_rng(0).random(len(n)) < 0.5
-    again = orient_normals(net_p, np.where(flips[:, None], -n, n), net.links)
-    assert np.array_equal(again, n)
     steps.append({"rule": "cellnet.melt", "iterations": 10})
     melted = run(check_recipe({"steps": steps}, host, "t.toml"), host, seed=1,
                  progress=False).state.domains["cells"]
     m = np.asarray(melted["cell__normal"])
     assert np.all(np.einsum("ij,ij->i", m, melted.positions - base) > 0)
+
+
+def test_an_open_box_faces_out_and_a_flat_sheet_keeps_its_winding():
+    from procgen_cellnet.orientation import orient_polygons, wound, loop_normal
+
+    sq = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    sheet = [[sq], [sq + [1, 0, 0]], [(sq + [0, 1, 0])[::-1]]]       # one of three reversed
+    sheet = [wound(p, loop_normal(p[0])) for p in sheet]
+    assert orient_polygons(sheet) == [False, False, True]
+    # an open box (no lid) of four walls and a floor, walls wound at random
+    walls = [np.array([[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]], float),
+             np.array([[1, 0, 0], [1, 1, 0], [1, 1, 1], [1, 0, 1]], float),
+             np.array([[1, 1, 0], [0, 1, 0], [0, 1, 1], [1, 1, 1]], float)[::-1],
+             np.array([[0, 1, 0], [0, 0, 0], [0, 0, 1], [0, 1, 1]], float),
+             sq]
+    polys = [wound([w], loop_normal(w)) for w in walls]
+    flips = orient_polygons(polys)
+    centre = np.array([0.5, 0.5, 0.5])
+    for p, f in zip(polys, flips):
+        n = loop_normal(p[0]) * (-1 if f else 1)
+        assert n @ (p[0].mean(axis=0) - centre) > 0, (p[0], f)

@@ -11,7 +11,6 @@ from procgen import FieldSpec, InputError, RuleBase, State, TriMesh, param
 from procgen.recipes import memory_limit_bytes
 
 from .boxes import check_stencil, pairs_brute, pairs_kdtree, pairs_within
-from .orientation import orient_normals
 from .network import CellNetwork
 from .polygons import polygons_mesh
 from .seeding import (BYTES_PER_CELL, DENSITY, GRIDS, SHELL, bond_length, link_radius,
@@ -182,8 +181,6 @@ class CellLinking(RuleBase):
     method: str = param("boxes", choices=METHODS, doc="27-box search, scipy cKDTree, or all pairs")
     min_normal_dot: float | None = param(None, ge=-1.0, le=1.0,
                                          doc="drop links whose normals' dot product is below this")
-    orient: bool = param(True, doc="give the normals one side over each linked surface (outward "
-                         "on closed ones) whatever the polygons' winding")
 
     def radius_cs(self, grid: str) -> float:
         return self.ri if self.ri is not None else SHELL[grid] - self.eps
@@ -213,9 +210,6 @@ class CellLinking(RuleBase):
             links = pairs_kdtree(net.positions, r)
         else:
             links = pairs_brute(net.positions, r)
-        if self.orient and "cell__normal" in net:
-            net.add_field("cell__normal", orient_normals(net.positions, net.normals(), links),
-                          at="cell", doc="unit normal")
         if self.min_normal_dot is not None:
             n = net.normals()
             links = links[np.einsum("ij,ij->i", n[links[:, 0]], n[links[:, 1]]) >= self.min_normal_dot]

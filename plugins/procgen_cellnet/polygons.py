@@ -4,7 +4,8 @@ The paper feeds "any type of polygon" to the cell seeding (section 3.3, Figure 8
 made of triangles, of convex or of concave polygons).  Only the union of a polygon's triangles
 matters to the seeding, so each polygon is triangulated in its own plane by shapely's
 constrained Delaunay triangulation (holes respected, no new vertices) and the triangles keep
-the polygon, object and material ids as face fields.  Bad polygons are refused in one line:
+the polygon, object and material ids as face fields; the triangles of every object face one
+side, outward where it encloses something (orientation.py).  Bad polygons are refused in one line:
 fewer than 3 vertices, not planar, zero area, self-intersecting, holes outside the outline.
 """
 from __future__ import annotations
@@ -12,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from procgen import InputError, TriMesh
+
+from .orientation import loop_normal, orient_polygons, wound
 
 #: a polygon's vertices must lie within this fraction of its size of its best-fit plane
 PLANAR_TOL = 1e-6
@@ -63,10 +66,18 @@ def polygons_mesh(polygons: list[list[list[list[float]]]], objects: list[int] | 
     for name, ids in (("objects", objects), ("materials", materials)):
         if ids is not None and len(ids) != len(polygons):
             raise InputError(f"{where}: {name} has {len(ids)} entries for {len(polygons)} polygons")
-    tris, pid = [], []
-    for k, loops in enumerate(polygons):
-        t = triangulate_polygon(loops, f"{where}: polygon {k}")
-        tris.append(t)
+    tris = [triangulate_polygon(loops, f"{where}: polygon {k}") for k, loops in enumerate(polygons)]
+    # one side per object (orientation.py): every triangle faces its polygon's oriented normal
+    wound_polys = []
+    for loops in polygons:
+        rings = [np.asarray(lp, float) for lp in loops]
+        wound_polys.append(wound(rings, loop_normal(rings[0])))
+    flips = orient_polygons(wound_polys)
+    pid = []
+    for k, t in enumerate(tris):
+        n = loop_normal(wound_polys[k][0]) * (-1 if flips[k] else 1)
+        back = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]) @ n < 0
+        t[back] = t[back][:, ::-1]
         pid.append(np.full(len(t), k))
     t = np.concatenate(tris)
     poly = np.concatenate(pid)
