@@ -9,7 +9,7 @@ Side by side, in one run, each configuration in a fresh process (so peak memory 
   are the same and only the domain differs (the outlines are compared byte for byte).
 
 Prints wall and CPU seconds of the whole run (CPU seconds are the steadier figure on a shared
-machine), cold (first run in the process: imports and numba's cached tile kernel loaded) and
+machine), cold (first run in the process: imports and numba's cached tile and event kernels loaded) and
 warm (the same run again in the process, as every later cloud of a sweep or gallery run), steps,
 N_v (vertices made), N_s, tiles, the tile sampler and peak RSS, then the ratios eager/lazy
 (target >= 3) and lazy 8000/lazy 2000 (target <= 1.1).

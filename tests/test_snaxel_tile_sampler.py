@@ -94,3 +94,22 @@ def test_accelerate_without_numba_names_the_extra(monkeypatch):
     with pytest.raises(InputError, match="fast"):
         sample_tile(np.random.default_rng(0), (0.0, 0.0), 8.0, 1.0, accelerate=True)
     assert len(sample_tile(np.random.default_rng(0), (0.0, 0.0), 8.0, 1.0)) > 20   # None: the numpy path
+
+
+def test_a_recipe_cloud_is_byte_identical_with_and_without_numba(tmp_path, host, monkeypatch):
+    """End to end through snaxel.grow: compiled tiles (and with them compiled events) against
+    PROCGEN_ACCELERATE=0 (numpy tiles, numpy events): the same files."""
+    import json
+
+    from test_snaxel_rules import grow
+
+    fast = grow(tmp_path, host, {"n_c": 1}, seed=3, out="fast")
+    monkeypatch.setenv("PROCGEN_ACCELERATE", "0")
+    grow(tmp_path, host, {"n_c": 1}, seed=3, out="slow")
+    reports = {k: json.loads((tmp_path / k / "run.json").read_text())["reports"] for k in ("fast", "slow")}
+    assert reports["fast"]["cloud.tile_sampler"] == "numba" and reports["slow"]["cloud.tile_sampler"] == "numpy"
+    assert fast.state.reports["cloud.births"] > 100
+    files = sorted(p.name for p in (tmp_path / "fast").iterdir() if p.name != "run.json")
+    assert files and files == sorted(p.name for p in (tmp_path / "slow").iterdir() if p.name != "run.json")
+    for name in files:
+        assert (tmp_path / "fast" / name).read_bytes() == (tmp_path / "slow" / name).read_bytes(), name

@@ -93,7 +93,8 @@ class TiledTopology(Topology):
         self.tile = float(tile)
         self.seed = seed
         self.vtile = np.zeros((0, 2), np.int64)   # tile index of every vertex
-        self._bufs = {"points": np.zeros((0, 2)), "vtile": self.vtile, "ring": self.ring}   # points etc. are views
+        self._bufs = {"points": np.zeros((0, 2)), "vtile": self.vtile, "ring": self.ring,   # points etc. are views
+                      "faces": self.faces}
         self._points: dict[Tile, np.ndarray] = {}  # tile -> vertex ids (sampling order)
         self._owned: dict[Tile, np.ndarray] = {}   # tile -> triangles it owns
         self._owned_keys = np.zeros(0, np.int64)
@@ -143,22 +144,32 @@ class TiledTopology(Topology):
         reach = 1.01 * self.radius
         lo = np.floor((p - reach) / self.tile).astype(np.int64)
         hi = np.floor((p + reach) / self.tile).astype(np.int64)
-        want = _key(*np.array(todo, np.int64).T)
-        near = np.zeros(len(ids), bool)
-        for ci in (lo[:, 0], hi[:, 0]):
-            for cj in (lo[:, 1], hi[:, 1]):
-                near |= np.isin(_key(ci, cj), want)
+        tij = np.array(todo, np.int64)
+        want = _key(tij[:, 0], tij[:, 1])
+        corner = tij.min(0)
+        is_todo = np.zeros(tuple(tij.max(0) - corner + 1), bool)     # the todo tiles on a small grid
+        is_todo[tuple((tij - corner).T)] = True
+
+        def todo_at(i: np.ndarray, j: np.ndarray) -> np.ndarray:
+            i, j = i - corner[0], j - corner[1]
+            inside = (i >= 0) & (i < is_todo.shape[0]) & (j >= 0) & (j < is_todo.shape[1])
+            out = np.zeros(len(i), bool)
+            out[inside] = is_todo[i[inside], j[inside]]
+            return out
+
+        near = (todo_at(lo[:, 0], lo[:, 1]) | todo_at(hi[:, 0], lo[:, 1]) | todo_at(lo[:, 0], hi[:, 1])
+                | todo_at(hi[:, 0], hi[:, 1]))
         ids = ids[near]
         tri = ids[Delaunay(self.points[ids]).simplices]
         ti = np.floor(circumcentres(self.points, tri) / self.tile).astype(np.int64)
-        key = _key(ti[:, 0], ti[:, 1])
-        tri, key = tri[np.isin(key, want)], key[np.isin(key, want)]
+        mine = todo_at(ti[:, 0], ti[:, 1])
+        tri, key = tri[mine], _key(ti[mine, 0], ti[mine, 1])
         order = np.argsort(key, kind="stable")
         tri, key = tri[order], key[order]
         cut = np.searchsorted(key, want)
         for t, a, b in zip(todo, cut, np.append(cut[1:], len(key))):
             self._owned[t] = tri[a:b]
-        self.faces = np.concatenate([self.faces, tri])
+        self._append("faces", tri)
         self._owned_keys = np.union1d(self._owned_keys, want)
 
     # -- readiness ---------------------------------------------------------------------------
