@@ -351,3 +351,48 @@ def test_seeded_types_start_their_heads(host, kind, n_heads):
     gaps = np.diff(np.concatenate([ang, [ang[0] + 2 * np.pi]]))
     want = {"T": [90, 90, 180], "Y": [120, 120, 120], "X": [90, 90, 90, 90]}[kind]
     np.testing.assert_allclose(np.sort(np.degrees(gaps)), want, atol=1e-6)
+
+
+@pytest.mark.parametrize("drag", [1.0, 0.5])
+def test_kinetic_potential_runs_out_below_mr_at_the_drag_rate(host, drag):
+    """A CM born with K = p x imax on a uniform field 0.1 below mR loses p x drag x 0.1 x step
+    per step: it ends after ceil(imax / (drag x 0.1 x step)) steps, straight (no axis above mR
+    to turn it), whatever p."""
+    base = _uniform(20000)
+    state, _ = _run(host, base)
+    seeds = _seeds(state, 0, [[0.0, 0.0]])
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 1.0, "seeds": seeds, "seed_types": ["I"], "release": 0.0, "drag": drag,
+        "potential": 3.0}, "until": "stable"},))
+    sc = state.domains["cells"]
+    n_steps = int(np.ceil(0.9 / (drag * 0.1 * 0.7)))
+    lines = _lines_2d(state, 0)
+    assert len(lines) == 2 and state.reports["cracks.stopped_by_potential"] == 2
+    for _, p in lines:
+        assert len(p) == 2                                           # straight
+        assert np.linalg.norm(p[1] - p[0]) / sc.size == pytest.approx(0.7 * n_steps, abs=1e-6)
+
+
+def test_cell_release_takes_a_share_of_each_cells_own_stress(host):
+    """release_of = "cell": a cell at x cells from the path loses release x (1 - x/d) of its
+    own across stress (here both heads' first steps cover the birth column), whatever the
+    stress driving the CM; the share caps at 1."""
+    base = _uniform(20000)[:-1] + ({"rule": "cracks.stress", "params": {
+        "mode": "uniform", "percent": [10.0, 0.0, 90.0, 0.0], "jitter": 0.3}},)
+    state, _ = _run(host, base)
+    before = np.asarray(state.domains["cells"]["stress__spectrum"])[:, 1].copy()
+    seeds = _seeds(state, 0, [[0.0, 0.0]])
+    d, rel = 4.0, 0.3
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 0.05, "seeds": seeds, "seed_types": ["I"], "release_distance": d,
+        "release": rel, "release_of": "cell", "max_module_steps": 1, "lookahead": 0.0}},))
+    sc = state.domains["cells"]
+    after = np.asarray(sc["stress__spectrum"])[:, 1]
+    p0 = _lines_2d(state, 0)[0][1][0]
+    rel_xy = (np.asarray(sc.center2d) - p0) / sc.size
+    inside = (np.asarray(sc.face) == 0) & (np.abs(rel_xy[:, 0]) < 0.05) & (np.abs(rel_xy[:, 1]) < d + 2)
+    x = np.abs(rel_xy[inside, 1])
+    share = np.where(x < d, np.minimum(2 * rel * (1 - x / d), 1.0), 0.0)
+    assert inside.sum() >= 9 and (share > 0).sum() >= 7
+    np.testing.assert_allclose(after[inside, 2], before[inside, 2] * (1 - share), atol=1e-12)
+    np.testing.assert_allclose(after[:, 0], before[:, 0])             # along the path: untouched
