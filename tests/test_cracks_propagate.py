@@ -231,31 +231,35 @@ def test_runs_are_byte_identical(host, plate_5_10):
     assert state.domains["cracks"].points.tobytes() == again.domains["cracks"].points.tobytes()
 
 
-def test_release_is_linear_in_distance_and_never_negative(host):
-    """One I crack, one step per head, on a uniform field: the vertical axis drops by
-    release x S x (1 - x/d) at distance x from the (horizontal) path, 0 beyond d."""
-    base = _uniform(20000)
+def _one_step_release(host, base, d: float, rel: float, **params):
+    """One I crack at facet 0's centre, one step per head: the spectrum before and after, and
+    the birth column (whose centres project onto both heads' first steps, so both release
+    there) with each cell's distance x from the horizontal path, in cells."""
     state, _ = _run(host, base)
     before = np.asarray(state.domains["cells"]["stress__spectrum"])[:, 1].copy()
     seeds = _seeds(state, 0, [[0.0, 0.0]])
-    d, rel = 4.0, 0.5
     state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
         "resistance": 0.05, "seeds": seeds, "seed_types": ["I"], "release_distance": d,
-        "release": rel, "max_module_steps": 1, "lookahead": 0.0}, "until": "stable"},))
+        "release": rel, "max_module_steps": 1, "lookahead": 0.0, **params}, "until": "stable"},))
     sc = state.domains["cells"]
     after = np.asarray(sc["stress__spectrum"])[:, 1]
-    assert (after >= 0).all()
-    drop = before[:, 2] - after[:, 2]
-    assert np.allclose(before[:, 0], after[:, 0])                 # along the path: untouched
-    on0 = np.asarray(sc.face) == 0
     p0 = _lines_2d(state, 0)[0][1][0]                       # the birth cell's centre
     rel_xy = (np.asarray(sc.center2d) - p0) / sc.size
-    # the birth column: its centres project onto both heads' first steps (both release there)
-    inside = on0 & (np.abs(rel_xy[:, 0]) < 0.05) & (np.abs(rel_xy[:, 1]) < d + 2)
-    x = np.abs(rel_xy[inside, 1])
+    inside = (np.asarray(sc.face) == 0) & (np.abs(rel_xy[:, 0]) < 0.05) & (np.abs(rel_xy[:, 1]) < d + 2)
+    assert inside.sum() >= 9
+    return before, after, inside, np.abs(rel_xy[inside, 1])
+
+
+def test_release_is_linear_in_distance_and_never_negative(host):
+    """One I crack, one step per head, on a uniform field: the vertical axis drops by
+    release x S x (1 - x/d) at distance x from the (horizontal) path, 0 beyond d."""
+    d, rel = 4.0, 0.5
+    before, after, inside, x = _one_step_release(host, _uniform(20000), d, rel)
+    assert (after >= 0).all()
+    assert np.allclose(before[:, 0], after[:, 0])                 # along the path: untouched
     expect = np.where(x < d, 2 * rel * 0.9 * (1 - x / d), 0.0)
-    assert inside.sum() >= 9 and (expect > 0).sum() >= 7
-    np.testing.assert_allclose(drop[inside], expect, atol=1e-9)
+    assert (expect > 0).sum() >= 7
+    np.testing.assert_allclose(before[inside, 2] - after[inside, 2], expect, atol=1e-9)
 
 
 def test_90_10_field_gives_horizontal_cracks(host):
@@ -351,3 +355,37 @@ def test_seeded_types_start_their_heads(host, kind, n_heads):
     gaps = np.diff(np.concatenate([ang, [ang[0] + 2 * np.pi]]))
     want = {"T": [90, 90, 180], "Y": [120, 120, 120], "X": [90, 90, 90, 90]}[kind]
     np.testing.assert_allclose(np.sort(np.degrees(gaps)), want, atol=1e-6)
+
+
+@pytest.mark.parametrize("drag", [1.0, 0.5])
+def test_kinetic_potential_runs_out_below_mr_at_the_drag_rate(host, drag):
+    """A CM born with K = p x imax on a uniform field 0.1 below mR loses p x drag x 0.1 x step
+    per step: it ends after ceil(imax / (drag x 0.1 x step)) steps, straight (no axis above mR
+    to turn it), whatever p."""
+    base = _uniform(20000)
+    state, _ = _run(host, base)
+    seeds = _seeds(state, 0, [[0.0, 0.0]])
+    state, _ = _run(host, base + ({"rule": "cracks.propagate", "params": {
+        "resistance": 1.0, "seeds": seeds, "seed_types": ["I"], "release": 0.0, "drag": drag,
+        "potential": 3.0}, "until": "stable"},))
+    sc = state.domains["cells"]
+    n_steps = int(np.ceil(0.9 / (drag * 0.1 * 0.7)))
+    lines = _lines_2d(state, 0)
+    assert len(lines) == 2 and state.reports["cracks.stopped_by_potential"] == 2
+    for _, p in lines:
+        assert len(p) == 2                                           # straight
+        assert np.linalg.norm(p[1] - p[0]) / sc.size == pytest.approx(0.7 * n_steps, abs=1e-6)
+
+
+def test_cell_release_takes_a_share_of_each_cells_own_stress(host):
+    """release_of = "cell": a cell at x cells from the path loses release x (1 - x/d) of its
+    own across stress (here from both heads' first steps), whatever the stress driving the
+    CM; the share caps at 1."""
+    base = _uniform(20000)[:-1] + ({"rule": "cracks.stress", "params": {
+        "mode": "uniform", "percent": [10.0, 0.0, 90.0, 0.0], "jitter": 0.3}},)
+    d, rel = 4.0, 0.3
+    before, after, inside, x = _one_step_release(host, base, d, rel, release_of="cell")
+    share = np.where(x < d, np.minimum(2 * rel * (1 - x / d), 1.0), 0.0)
+    assert (share > 0).sum() >= 7
+    np.testing.assert_allclose(after[inside, 2], before[inside, 2] * (1 - share), atol=1e-12)
+    np.testing.assert_allclose(after[:, 0], before[:, 0])             # along the path: untouched

@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 
-from procgen.ca.graph import MOORE
 from procgen.ca.subcell import AXIS_ANGLES, across_share, wrap_angle
 from procgen_surface.geometry import edge_half_planes
 from procgen_surface.neighbours import edge_frames, edge_topology
@@ -24,12 +23,6 @@ from .stress import FaceSampler
 
 _STATE = ("layer", "face", "xy", "ang", "K", "R", "crack", "ctype", "line", "cell", "prev",
           "anchor", "seg", "turn", "steps")
-
-
-def _direction_slot(vec: np.ndarray) -> np.ndarray:
-    """Moore slot nearest in angle to 2-D vectors (m, 2)."""
-    unit = MOORE / np.linalg.norm(MOORE, axis=1, keepdims=True)
-    return np.argmax(vec @ unit.T, axis=1)
 
 
 class FacetEdges:
