@@ -121,9 +121,9 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               float(p.stable_speed), int(p.max_age), float(p.speed_ref), float(p.evaporation),
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
-              ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts, work.fa, work.ia,
-              work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey, work.touched,
-              work.dtouched)
+              ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
+              work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
+              work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
 
@@ -209,7 +209,7 @@ def _top(t, c, L):
     return top
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _height_at(h, x, y, nx, ny):
     c, fu, fv = _corners(x, y, nx, ny)
     res = 0.0
@@ -220,7 +220,7 @@ def _height_at(h, x, y, nx, ny):
     return res
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
     """Cells and weights of one drop's footprint into cells/w[base:base + k]; returns k."""
     if mode == 0:
@@ -270,7 +270,7 @@ def _add(sk, kb, stamp, touched, nt, key, x):
     return nt
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd):
     """Add drop i's deposit of ``amount`` > 0 over its footprint to the deposit column
     sk[:, 3] (zero at rest; only positive terms, so a key is new while its sum is 0)."""
@@ -288,7 +288,7 @@ def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched,
     return nd
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _laid(a, thickness, deposit, sk, kb, dtouched, nd):
     """particles._deposit's ``thickness += bincount(...) / a`` for the keys laid on."""
     tf = thickness.reshape(-1)
@@ -456,185 +456,195 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
 def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, kb, stamps, h, ent, pairs, pkey, touched, dtouched, lo, hi):
-    """particles.interact (and the path count) over the packed drops lo..hi-1, with the key sums
-    in rows key - kb of ``sk``.  The caller passes either all drops in drop order with the grid's
-    rows (kb = 0), or, with the one-cell footprint, the drops of one cell (in drop order) with a
-    few rows of its own (kb = cell * L): no other cell's keys are heard, so running all phases
-    one cell at a time changes no number while each cell's rows stay in cache.  Empty drops are
-    left in place with volume 0 (the caller drops them)."""
+              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, n):
+    """particles.interact (and the path count) over the n packed drops, each key's sum in row
+    key - kb of ``rows``.  With the one-cell footprint the drops come in (cell, drop) order and
+    a key hears only its own cell's drops, so the phases run one cell at a time on the few rows
+    of ``cell_sk`` (kb = cell * L): no number changes while each cell's data stays in cache.
+    Otherwise the drops come in drop order and the phases run once over all of them on the
+    grid's rows ``sk`` (kb = 0).  Empty drops are left with volume 0 (the caller drops them)."""
     L = thickness.shape[1]
     a = sp * sp
     tf = thickness.reshape(-1)
     hf = held.reshape(-1)
-    for i in range(lo, hi):
-        c = I[i, CELL]
-        I[i, TOP] = _top(thickness, c, L)
-        if I[i, MOV]:
-            path[c] += 1.0
     fc = pkey
     fw = pairs[:, 0]
-    # --- absorption (demand per key, grant, deposition by concentration) ---------------------
-    stamps[0] += 1.0
-    st = stamps[0]
-    nt = 0
-    na = 0
-    for i in range(lo, hi):
-        tp = I[i, TOP]
-        tk = max(tp, 0)
-        if not (tp >= 0 and absorbs[tk] and F[i, VOL] > 0):
-            continue
-        c = I[i, CELL]
-        cap = capacity[tk] * thickness[c, tk] * a
-        w = held[c, tk]
-        sat = _clip(w / cap, 0.0, 1.0) if cap > 0 else 1.0
-        demand = F[i, VOL] * absorption_rate[tk] * (1.0 - sat) / (1.0 + F[i, SPD] / speed_ref)
-        key = c * L + tk
-        pairs[na, 1] = demand
-        ent[na, 0] = i
-        ent[na, 3] = key
-        na += 1
-        nt = _add(sk, kb, st, touched, nt, key, demand)
-    if na:
-        for t in range(nt):                       # per key: the granted total, into held
-            key = touched[t]
-            c = key // L
-            l = key % L
-            cap = capacity[l] * thickness[c, l] * a
-            got = min(sk[key - kb, 0], max(cap - held[c, l], 0.0))
-            sk[key - kb, 1] = got
-            if sk[key - kb, 0] > 0:
-                hf[key] += got
-        nd = 0
-        for e in range(na):
-            i = ent[e, 0]
-            key = ent[e, 3]
-            tk_ = sk[key - kb, 0]
-            g = pairs[e, 1] * (sk[key - kb, 1] / tk_) if tk_ > 0 else 0.0
-            v_old = F[i, VOL]
-            F[i, VOL] = max(v_old - g, 0.0)
-            frac = g / v_old if v_old > 0 else 0.0
-            dep = F[i, SED] if F[i, VOL] <= 0 else F[i, SED] * frac
-            if dep > 0:
-                nd = _lay(nx, ny, L, i, dep, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd)
-                F[i, SED] -= dep
-        _laid(a, thickness, deposit, sk, kb, dtouched, nd)
-    # --- erosion by moving drops --------------------------------------------------------------
-    stamps[0] += 1.0
-    st = stamps[0]
-    nt = 0
-    kk = 0
-    ne = 0
-    pdem = pairs[:, 1]
-    for i in range(lo, hi):
-        if not ((I[i, MOV] or erode_stabilised) and F[i, VOL] > 0):
-            continue
-        cd = I[i, KIND] if I[i, KIND] >= 0 else I[i, TOP]
-        if not (cd >= 0 and erodible[cd]):
-            continue
-        k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, kk)
-        per_drop = 0.0
-        for q in range(kk, kk + k):
-            pc = fc[q]
-            cap = capacity[cd] * thickness[pc, cd] * a
-            hd = held[pc, cd]
-            sat = hd / cap if cap > 0 else 1.0
-            th = threshold[cd]
-            weak = max(sat - th, 0.0) / (1.0 - th) if th < 1.0 else 0.0
-            liquid = F[i, VOL] + hd
-            if _top(thickness, pc, L) == cd and fw[q] > 0:
-                pdem[q] = fw[q] * erosion_rate[cd] * weak * liquid
-            else:
-                pdem[q] = 0.0
-            per_drop += pdem[q]
-        rm = max_concentration * F[i, VOL] - F[i, SED]
-        if cap_k >= 0:
-            gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
-            slope = math.hypot(gx, gy)
-            capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
-            capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
-            rm = min(rm, capd - F[i, SED])
-            rm = min(rm, max(-F[i, DH], 0.0) * a)
-        rm = max(rm, 0.0)
-        lim = rm / per_drop if per_drop > rm else 1.0
-        for q in range(kk, kk + k):
-            pdem[q] *= lim
-            key = fc[q] * L + cd
-            fc[q] = key
-            nt = _add(sk, kb, st, touched, nt, key, pdem[q])
-        ent[ne, 0] = i
-        ent[ne, 1] = kk
-        ent[ne, 2] = cd
-        ne += 1
-        kk += k
-    ent[ne, 1] = kk
-    if ne:
-        # per key: what is removed; then sk[:, 0] = got / total, sk[:, 1] = removed / got,
-        # sk[:, 3] = water released per removed volume (reset below)
-        nrel = 0
-        df = deposit.reshape(-1)
-        for t in range(nt):
-            key = touched[t]
-            tot = sk[key - kb, 0]
-            got = min(tot, max(tf[key] * a, 0.0)) if tot > 0 else 0.0
-            sk[key - kb, 0] = got / tot if tot > 0 else 0.0
-            corr = 0.0
-            if got > 0:
-                t_old = tf[key]
-                t_new = max(t_old - got / a, 0.0)
-                actual = (t_old - t_new) * a
-                tf[key] = t_new
-                df[key] = max(df[key] - (t_old - t_new), 0.0)
-                corr = actual / got
+    lo = 0
+    while lo < n:
+        rows, kb, hi = sk, 0, n
+        if mode == 0:
+            c0 = I[lo, CELL]
+            hi = lo + 1
+            while hi < n and I[hi, CELL] == c0:
+                hi += 1
+            rows, kb = cell_sk, c0 * L
+        for i in range(lo, hi):
+            c = I[i, CELL]
+            I[i, TOP] = _top(thickness, c, L)
+            if I[i, MOV]:
+                path[c] += 1.0
+        # --- absorption (demand per key, grant, deposition by concentration) ---------------------
+        stamps[0] += 1.0
+        st = stamps[0]
+        nt = 0
+        na = 0
+        for i in range(lo, hi):
+            tp = I[i, TOP]
+            tk = max(tp, 0)
+            if not (tp >= 0 and absorbs[tk] and F[i, VOL] > 0):
+                continue
+            c = I[i, CELL]
+            cap = capacity[tk] * thickness[c, tk] * a
+            w = held[c, tk]
+            sat = _clip(w / cap, 0.0, 1.0) if cap > 0 else 1.0
+            demand = F[i, VOL] * absorption_rate[tk] * (1.0 - sat) / (1.0 + F[i, SPD] / speed_ref)
+            key = c * L + tk
+            pairs[na, 1] = demand
+            ent[na, 0] = i
+            ent[na, 3] = key
+            na += 1
+            nt = _add(rows, kb, st, touched, nt, key, demand)
+        if na:
+            for t in range(nt):                       # per key: the granted total, into held
+                key = touched[t]
                 c = key // L
                 l = key % L
-                capn = capacity[l] * thickness[c, l] * a
-                excess = max(hf[key] - capn, 0.0) if actual > 0 else 0.0
-                if excess > 0:
-                    hf[key] -= excess
-                    sk[key - kb, 3] = excess / (actual if actual > 0 else 1.0)
-                    dtouched[nrel] = key
-                    nrel += 1
-            sk[key - kb, 1] = corr
-        for e in range(ne):
-            i = ent[e, 0]
-            taken = 0.0
-            back = 0.0
-            for q in range(ent[e, 1], ent[e + 1, 1]):
-                key = fc[q]
-                g = pdem[q] * sk[key - kb, 0] * sk[key - kb, 1]
-                taken += g
-                back += g * sk[key - kb, 3]
-            F[i, SED] += taken
-            F[i, VOL] += back
-            if taken > 0:
-                I[i, KIND] = ent[e, 2]
-        for t in range(nrel):
-            sk[dtouched[t] - kb, 3] = 0.0
-    # --- deposition beyond the capacity -------------------------------------------------------
-    if cap_k >= 0:
+                cap = capacity[l] * thickness[c, l] * a
+                got = min(rows[key - kb, 0], max(cap - held[c, l], 0.0))
+                rows[key - kb, 1] = got
+                if rows[key - kb, 0] > 0:
+                    hf[key] += got
+            nd = 0
+            for e in range(na):
+                i = ent[e, 0]
+                key = ent[e, 3]
+                tk_ = rows[key - kb, 0]
+                g = pairs[e, 1] * (rows[key - kb, 1] / tk_) if tk_ > 0 else 0.0
+                v_old = F[i, VOL]
+                F[i, VOL] = max(v_old - g, 0.0)
+                frac = g / v_old if v_old > 0 else 0.0
+                dep = F[i, SED] if F[i, VOL] <= 0 else F[i, SED] * frac
+                if dep > 0:
+                    nd = _lay(nx, ny, L, i, dep, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
+                    F[i, SED] -= dep
+            _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+        # --- erosion by moving drops --------------------------------------------------------------
+        stamps[0] += 1.0
+        st = stamps[0]
+        nt = 0
+        kk = 0
+        ne = 0
+        pdem = pairs[:, 1]
+        for i in range(lo, hi):
+            if not ((I[i, MOV] or erode_stabilised) and F[i, VOL] > 0):
+                continue
+            cd = I[i, KIND] if I[i, KIND] >= 0 else I[i, TOP]
+            if not (cd >= 0 and erodible[cd]):
+                continue
+            k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, kk)
+            per_drop = 0.0
+            for q in range(kk, kk + k):
+                pc = fc[q]
+                cap = capacity[cd] * thickness[pc, cd] * a
+                hd = held[pc, cd]
+                sat = hd / cap if cap > 0 else 1.0
+                th = threshold[cd]
+                weak = max(sat - th, 0.0) / (1.0 - th) if th < 1.0 else 0.0
+                liquid = F[i, VOL] + hd
+                if _top(thickness, pc, L) == cd and fw[q] > 0:
+                    pdem[q] = fw[q] * erosion_rate[cd] * weak * liquid
+                else:
+                    pdem[q] = 0.0
+                per_drop += pdem[q]
+            rm = max_concentration * F[i, VOL] - F[i, SED]
+            if cap_k >= 0:
+                gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
+                slope = math.hypot(gx, gy)
+                capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
+                capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
+                rm = min(rm, capd - F[i, SED])
+                rm = min(rm, max(-F[i, DH], 0.0) * a)
+            rm = max(rm, 0.0)
+            lim = rm / per_drop if per_drop > rm else 1.0
+            for q in range(kk, kk + k):
+                pdem[q] *= lim
+                key = fc[q] * L + cd
+                fc[q] = key
+                nt = _add(rows, kb, st, touched, nt, key, pdem[q])
+            ent[ne, 0] = i
+            ent[ne, 1] = kk
+            ent[ne, 2] = cd
+            ne += 1
+            kk += k
+        ent[ne, 1] = kk
+        if ne:
+            # per key: what is removed; then rows[:, 0] = got / total, rows[:, 1] = removed / got,
+            # rows[:, 3] = water released per removed volume (reset below)
+            nrel = 0
+            df = deposit.reshape(-1)
+            for t in range(nt):
+                key = touched[t]
+                tot = rows[key - kb, 0]
+                got = min(tot, max(tf[key] * a, 0.0)) if tot > 0 else 0.0
+                rows[key - kb, 0] = got / tot if tot > 0 else 0.0
+                corr = 0.0
+                if got > 0:
+                    t_old = tf[key]
+                    t_new = max(t_old - got / a, 0.0)
+                    actual = (t_old - t_new) * a
+                    tf[key] = t_new
+                    df[key] = max(df[key] - (t_old - t_new), 0.0)
+                    corr = actual / got
+                    c = key // L
+                    l = key % L
+                    capn = capacity[l] * thickness[c, l] * a
+                    excess = max(hf[key] - capn, 0.0) if actual > 0 else 0.0
+                    if excess > 0:
+                        hf[key] -= excess
+                        rows[key - kb, 3] = excess / (actual if actual > 0 else 1.0)
+                        dtouched[nrel] = key
+                        nrel += 1
+                rows[key - kb, 1] = corr
+            for e in range(ne):
+                i = ent[e, 0]
+                taken = 0.0
+                back = 0.0
+                for q in range(ent[e, 1], ent[e + 1, 1]):
+                    key = fc[q]
+                    g = pdem[q] * rows[key - kb, 0] * rows[key - kb, 1]
+                    taken += g
+                    back += g * rows[key - kb, 3]
+                F[i, SED] += taken
+                F[i, VOL] += back
+                if taken > 0:
+                    I[i, KIND] = ent[e, 2]
+            for t in range(nrel):
+                rows[dtouched[t] - kb, 3] = 0.0
+        # --- deposition beyond the capacity -------------------------------------------------------
+        if cap_k >= 0:
+            nd = 0
+            for i in range(lo, hi):
+                gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
+                slope = math.hypot(gx, gy)
+                capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
+                capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
+                extra = max(F[i, SED] - capd, 0.0) * deposition_rate
+                if not I[i, MOV]:
+                    extra = F[i, SED]
+                extra = max(extra, min(max(F[i, DH], 0.0) * a, F[i, SED]))
+                if extra > 0:
+                    nd = _lay(nx, ny, L, i, extra, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
+                    F[i, SED] -= extra
+            _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+        # --- empty drops lay what they carry ------------------------------------------------------
         nd = 0
         for i in range(lo, hi):
-            gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
-            slope = math.hypot(gx, gy)
-            capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
-            capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
-            extra = max(F[i, SED] - capd, 0.0) * deposition_rate
-            if not I[i, MOV]:
-                extra = F[i, SED]
-            extra = max(extra, min(max(F[i, DH], 0.0) * a, F[i, SED]))
-            if extra > 0:
-                nd = _lay(nx, ny, L, i, extra, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd)
-                F[i, SED] -= extra
-        _laid(a, thickness, deposit, sk, kb, dtouched, nd)
-    # --- empty drops lay what they carry ------------------------------------------------------
-    nd = 0
-    for i in range(lo, hi):
-        if not F[i, VOL] > 0 and F[i, SED] > 0:
-            s_ = F[i, SED]
-            nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd)
-            F[i, SED] -= s_
-    _laid(a, thickness, deposit, sk, kb, dtouched, nd)
+            if not F[i, VOL] > 0 and F[i, SED] > 0:
+                s_ = F[i, SED]
+                nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
+                F[i, SED] -= s_
+        _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+        lo = hi
 
 
 @njit(cache=True, nogil=True)
@@ -685,24 +695,10 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         if not ia[o, OUT]:
             _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
     # --- interact ---------------------------------------------------------------------------------
-    if mode == 0:                   # one cell at a time, its keys in the few rows of ``cell_sk``
-        lo = 0
-        while lo < n:
-            c = ib[lo, CELL]
-            hi = lo + 1
-            while hi < n and ib[hi, CELL] == c:
-                hi += 1
-            _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
-                      erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k,
-                      min_slope, deposition_rate, max_concentration, erode_stabilised, max_age,
-                      fade, mode, oy, ox, ow, cell_sk, c * L, stamps, h, ent, pairs, pkey,
-                      touched, dtouched, lo, hi)
-            lo = hi
-    else:
-        _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
-                  erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
-                  deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
-                  ox, ow, sk, 0, stamps, h, ent, pairs, pkey, touched, dtouched, 0, n)
+    _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
+              erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
+              deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
+              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, n)
     # --- the drops with water back into the caller's arrays, in drop order ----------------------
     for r in range(n0):
         key[r] = -1
