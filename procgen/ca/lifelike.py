@@ -127,6 +127,8 @@ class LifeLike(StateAutomaton):
 
     Runs on any cell domain.  Each step every present cell counts its live neighbours N and
     takes T(N, own state) from the rule's table (synchronous).  ``age_field`` counts steps alive.
+    On the compiled path (procgen.accel) a step is one fused kernel on buffers made in setup,
+    and the published fields are those buffers (copy one to keep a past step's state).
     """
 
     example: ClassVar[tuple[dict, ...]] = (
