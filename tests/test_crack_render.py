@@ -16,7 +16,9 @@ from scipy.integrate import quad
 from procgen import Polylines, State
 from procgen_cracks.exporters import crack_glb, crack_obj, crack_svg, texel_colors
 from procgen_cracks.mirror import mirror_offset
-from procgen_cracks.render import PROFILES, band_coverage, profile_constants, profile_density
+from procgen_cracks import render
+from procgen_cracks.render import (PROFILES, band_coverage, coverage_bound, profile_constants,
+                                     profile_density)
 from procgen_cracks.render_rules import CrackMirror, CrackSheet, DrawCracks, RenderCracks
 from procgen_layers.materials import parse_materials
 from procgen_layers.stack import put_thickness, store_table
@@ -120,6 +122,36 @@ def test_coverage_grows_with_the_crack_width(profile):
             RenderCracks(k=6, profile=profile).step(s)
         a, b = (np.asarray(s.get("cells")["crack__coverage"]) for s in state)
         assert np.all(b >= a - 1e-6)
+
+
+@pytest.mark.parametrize("profile", PROFILES)
+def test_coverage_bound_is_never_below_the_coverage(profile):
+    """The pruning bound holds for hairlines and wide cracks, any direction, in and out of the band."""
+    rng = np.random.default_rng(7)
+    cs, n = 0.01, 200_000
+    ang = rng.uniform(0.0, np.pi / 2, n)
+    c, s = np.cos(ang), np.sin(ang)
+    ct = cs * np.exp(rng.uniform(np.log(0.05), np.log(40.0), n))
+    dist = rng.uniform(0.0, 1.0, n) * (0.5 * ct + cs)
+    cov = band_coverage(dist, c, s, ct, cs, profile, 0.3)
+    bound = coverage_bound(dist, c, s, ct, cs, profile, 0.3)
+    assert np.all(bound >= cov) and (cov > 0.05).mean() > 0.3
+    assert np.median(bound[cov > 0.05] / cov[cov > 0.05]) < 3.0       # tight enough to prune
+
+
+@pytest.mark.parametrize("profile", ["v_linear", "u_parabolic_b"])
+def test_pruned_coverage_equals_the_maximum_over_every_pair(profile, monkeypatch):
+    """Wide bending cracks (many overlapping pieces): same bytes as evaluating every pair."""
+    lines = [[-0.42, -0.3, 0.05, -0.1, 0.05, 0.12, 0.2, -0.12, 0.02, 0.41, 0.3, 0.08],
+             [-0.3, 0.35, 0.03, 0.3, -0.38, 0.06]]
+    covs = []
+    for prune in (True, False):
+        state = flat_state(lines, size=0.04)
+        if not prune:
+            monkeypatch.setattr(render, "coverage_bound", lambda dist, *a: np.full(len(dist), np.inf))
+        RenderCracks(k=9, profile=profile).step(state)
+        covs.append(np.asarray(state.get("cells")["crack__coverage"]))
+    assert (covs[0] > 0).sum() > 5000 and covs[0].tobytes() == covs[1].tobytes()
 
 
 def test_texture_changes_only_in_cracked_cells_and_shows_the_lower_layer():
