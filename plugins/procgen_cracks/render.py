@@ -316,10 +316,6 @@ def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
 def _accumulate(out: np.ndarray, cells, seg: Segments, reach: np.ndarray, k: int, cs: float,
                 profile: str, saturation: float) -> None:
     idx, mx, my = _pairs(seg, reach, cells, k)
-    face = seg.face[idx]
-    cell = cells.layout.cell_at(face, mx // k, my // k)
-    ok = cell >= 0
-    idx, mx, my, cell = idx[ok], mx[ok], my[ok], cell[ok]
     p = (np.column_stack([mx, my]) + 0.5) * cs
     a, b = seg.a[idx], seg.b[idx]
     ab = b - a
@@ -328,18 +324,20 @@ def _accumulate(out: np.ndarray, cells, seg: Segments, reach: np.ndarray, k: int
     dist = np.linalg.norm(p - (a + t[:, None] * ab), axis=1)
     width = seg.wa[idx] + t * (seg.wb[idx] - seg.wa[idx])
     near = dist < 0.5 * width + cs * np.sqrt(0.5)          # the band can reach the micro-cell
-    idx, cell, mx, my, ab, ln2, dist, width = (v[near] for v in (idx, cell, mx, my, ab, ln2, dist, width))
+    idx, mx, my, ab, ln2, t, dist, width = (v[near] for v in (idx, mx, my, ab, ln2, t, dist, width))
+    cell = cells.layout.cell_at(seg.face[idx], mx // k, my // k)
+    ok = cell >= 0
+    cell, mx, my, ab, ln2, t, dist, width = (v[ok] for v in (cell, mx, my, ab, ln2, t, dist, width))
     ln = np.sqrt(ln2)
     c, s = np.abs(ab[:, 0]) / ln, np.abs(ab[:, 1]) / ln
     flat = (cell * k + mx % k) * k + my % k
     ub = coverage_bound(dist, c, s, width, cs, profile, saturation)
     # Overlapping pieces meet over the same micro-cells; only the largest coverage is kept, so
-    # a pair whose bound is below the micro-cell's current value cannot change it.  The pair of
-    # largest bound per micro-cell goes first to raise that value, then the rest is pruned.
-    order = np.lexsort((-ub, flat))
-    first = np.ones(len(order), bool)
-    first[1:] = flat[order][1:] != flat[order][:-1]
-    for rows in (order[first], order[~first]):
+    # a pair whose bound is below the micro-cell's current value cannot change it.  The pairs
+    # beside a piece (projection inside it) go first and raise those values; the pairs off a
+    # piece's ends (its round caps, mostly covered better by the next piece) are then pruned.
+    beside = (t > 0.0) & (t < 1.0)
+    for rows in (np.nonzero(beside)[0], np.nonzero(~beside)[0]):
         rows = rows[ub[rows] >= out[flat[rows]]]
         cov = band_coverage(dist[rows], c[rows], s[rows], width[rows], cs, profile, saturation)
         np.maximum.at(out, flat[rows], cov.astype(np.float32))
