@@ -26,7 +26,10 @@ The thesis approximates the coverage double integral by the clipped lengths of l
 exactly for a straight segment: the micro-cell's chord length at normal offset t is a trapezoid,
 f is piecewise polynomial, so a 3-point Gauss-Legendre rule per piece between the breakpoints is
 exact.  Everything is numpy over all (segment piece, micro-cell) pairs; several pieces over one
-micro-cell combine by their maximum.
+micro-cell combine by their maximum.  A crack many cells wide overlaps itself over several pieces
+(each piece's round ends reach far past it), so a pair is only integrated when a cheap upper
+bound of its coverage (:func:`coverage_bound`) reaches the micro-cell's current value: the
+result is the same maximum, bit for bit.
 """
 from __future__ import annotations
 
