@@ -1,5 +1,6 @@
-"""The illustrated cloudscape: lobes shading one another from the sun, silver linings, translucent
-edges, ground shadows cast away from the sun, one layer per cloud; curve limits of varied size."""
+"""The illustrated cloudscape: soft lobes shading one another, light dimming through the cloud,
+rounded outlines, silver linings, translucent edges, each cloud's outline projected on the ground,
+small pale clouds at the horizon, one layer per cloud; curve limits of varied size."""
 from __future__ import annotations
 
 import re
@@ -9,7 +10,11 @@ import numpy as np
 import pytest
 
 from procgen import InputError, Polylines
-from procgen_snaxel.cloudscape_svg import cloudscape_svg, occlusion
+import svgelements
+from shapely import Polygon
+
+from procgen_snaxel.cloudscape_svg import (DEPTH_REACH, DEPTH_STEPS, GROUND_REACH, cloudscape_svg, light_depth,
+                                           occlusion, rounded)
 from procgen_snaxel.growth import CloudGrowth
 from procgen_snaxel.tessellate import poisson_tessellation
 
@@ -50,7 +55,7 @@ def test_every_reference_resolves_and_each_cloud_keeps_its_layer():
     labels = [g.get(INK + "label") for g in root.findall(SVG + "g")]
     assert labels == ["sky", "ground", "cloud 1 (depth 0)", "cloud 2 (depth 1)"]
     ids = {e.get("id") for e in root.iter() if e.get("id")}
-    refs = set(re.findall(rb"url\(#([^)]+)\)", raw))
+    refs = set(re.findall(rb"url\(#([^)]+)\)", raw)) | set(re.findall(rb'href="#([^"]+)"', raw))
     assert refs and {r.decode() for r in refs} <= ids               # gradients, clips, masks, filters exist
     kinds = {e.tag[len(SVG):] for e in root.iter(SVG + "defs").__next__()}
     assert {"radialGradient", "linearGradient", "clipPath", "mask", "filter"} <= kinds
@@ -60,24 +65,66 @@ def _rgb(hexcolour: str) -> float:
     return sum(int(hexcolour[k:k + 2], 16) for k in (1, 3, 5))
 
 
-def test_the_shaded_lobe_is_darker_and_casts_nothing_on_the_sunward_one():
+def _stops(root: ET.Element) -> dict[str, list[ET.Element]]:
+    return {g.get("id"): g.findall(SVG + "stop") for g in root.iter() if g.tag.endswith("Gradient")}
+
+
+def test_the_shaded_lobe_is_darker_and_no_lobe_has_a_hard_edge():
     root, _ = _scape(sun_x=0.0, sun_y=1.0, self_shadow=0.6)
-    stops = {g.get("id"): g.findall(SVG + "stop")[0].get("stop-color") for g in root.iter(SVG + "radialGradient")}
+    stops = _stops(root)
     layer = [g for g in root.findall(SVG + "g") if g.get(INK + "label") == "cloud 2 (depth 1)"][0]
     discs = [c for c in layer.iter(SVG + "circle") if (c.get("fill") or "").startswith("url(#lobe")]
     assert len(discs) == 2
     cy = [float(c.get("cy")) for c in discs]
     fills = [c.get("fill")[5:-1] for c in discs]
     low, high = (0, 1) if cy[0] > cy[1] else (1, 0)                 # page y-down: larger cy is lower
-    assert _rgb(stops[fills[low]]) < _rgb(stops[fills[high]])       # the lower lobe lies in the upper's shadow
-    order = [c for c in layer.iter(SVG + "circle")]
-    assert order[-1].get("fill") == f"url(#{fills[high]})"          # the sunward lobe is drawn last, unshadowed
-    casts = [c for c in order if c.get("filter")]
-    assert len(casts) == 2 and float(casts[1].get("cy")) > float(discs[high].get("cy"))   # cast away from the sun
+    assert _rgb(stops[fills[low]][0].get("stop-color")) < _rgb(stops[fills[high]][0].get("stop-color"))
+    assert discs[-1].get("fill") == f"url(#{fills[high]})"          # the sunward lobe is drawn last
+    for ident, st in stops.items():                                 # soft lobes: opaque dome, transparent rim
+        if ident.startswith("lobe"):
+            assert float(st[0].get("stop-opacity")) == 1.0 and float(st[-1].get("stop-opacity")) == 0.0
     flat, _ = _scape(sun_x=0.0, sun_y=1.0, self_shadow=0.0)
-    assert not [c for c in flat.iter(SVG + "circle") if c.get("filter")]        # no cast shadows
-    assert len({g.findall(SVG + "stop")[0].get("stop-color") for g in flat.iter(SVG + "radialGradient")
-                if g.get("id").startswith("lobe1-")}) == 1                      # one shade for every lobe
+    assert len({st[0].get("stop-color") for k, st in _stops(flat).items() if k.startswith("lobe1-")}) == 1
+
+
+def test_light_dims_with_the_cloud_it_crossed():
+    sun = np.array([-0.6, 0.8])
+    a = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    disc = np.column_stack([50 + 20 * np.cos(a), 40 + 20 * np.sin(a)])
+    probes = np.random.default_rng(3).uniform([30, 20], [70, 60], (500, 2))
+    got = light_depth(disc, sun, 40.0, probes)
+    # independent count: steps k * DEPTH_REACH * height / DEPTH_STEPS toward the sun that are in the disc
+    steps = np.arange(1, DEPTH_STEPS + 1) / DEPTH_STEPS * DEPTH_REACH * 40.0
+    ahead = probes[:, None, :] + steps[None, :, None] * sun[None, None, :]
+    want = (np.hypot(ahead[..., 0] - 50, ahead[..., 1] - 40) < 19.97).sum(1)
+    ok = np.abs(np.hypot(*(ahead - [50, 40]).transpose(2, 0, 1)) - 20).min(1) > 0.1   # not on the polygon's edge
+    assert np.array_equal(got[ok], want[ok]) and want.max() == DEPTH_STEPS
+    sunward, deep = np.array([[50 - 0.6 * 19, 40 + 0.8 * 19]]), np.array([[50 + 0.6 * 15, 40 - 0.8 * 15]])
+    assert light_depth(disc, sun, 40.0, sunward)[0] == 0 and light_depth(disc, sun, 40.0, deep)[0] == DEPTH_STEPS
+    # the drawing shifts the silhouette by exactly these steps, away from the sun (page y down)
+    root, _ = _scape(sun_x=-0.6, sun_y=0.8, self_shadow=0.5)
+    layer = [g for g in root.findall(SVG + "g") if g.get(INK + "label") == "cloud 2 (depth 1)"][0]
+    shifts = [tuple(map(float, re.findall(r"-?[\d.]+", u.get("transform")))) for u in layer.iter(SVG + "use")
+              if (u.get("transform") or "").startswith("translate")]
+    height = 2 * 12 * np.sin(np.pi * 7 / 15) + 8.0                   # the two domes' sampled tops and the gap
+    want_shifts = [(0.6 * k * DEPTH_REACH * height, 0.8 * k * DEPTH_REACH * height)    # down-right on the page
+                   for k in np.arange(1, DEPTH_STEPS + 1) / DEPTH_STEPS]
+    assert np.allclose(shifts, want_shifts, atol=1e-3)
+
+
+def test_rounded_outline_cuts_spikes_and_the_thesis_outline_stays_the_default():
+    a = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+    r = 20 + 8 * (np.abs(np.sin(12 * a)) > 0.995)                      # a disc with 24 thin spikes
+    spiky = np.column_stack([50 + r * np.cos(a), 40 + r * np.sin(a)])
+    soft = rounded(spiky, 2.0)
+    assert np.hypot(*(soft - [50, 40]).T).max() < 20.5                  # every spike cut
+    assert Polygon(soft).area == pytest.approx(np.pi * 400, rel=0.02)    # the body kept
+    assert Polygon(soft).exterior.is_ccw
+    root, _ = _scape()
+    outlines = {p.get("id"): p.get("d") for p in root.iter(SVG + "path") if (p.get("id") or "").startswith("outline")}
+    assert len(outlines) == 2 and outlines["outline0"].count("L") == 23     # the snaxel contour, point for point
+    smooth, _ = _scape(outline="rounded", round_radius=0.2)
+    assert {p.get("d") for p in smooth.iter(SVG + "path") if p.get("id") == "outline1"} != {outlines["outline1"]}
 
 
 def test_silver_lining_faces_the_sun_and_edges_fade():
@@ -92,7 +139,7 @@ def test_silver_lining_faces_the_sun_and_edges_fade():
     masks = list(root.iter(SVG + "mask"))
     assert len(masks) == 2
     for m in masks:
-        ident = m.find(SVG + "path").get("filter")[5:-1]
+        ident = m.find(SVG + "use").get("filter")[5:-1]
         blur = [f for f in root.iter(SVG + "filter") if f.get("id") == ident][0].find(SVG + "feGaussianBlur")
         assert float(blur.get("stdDeviation")) > 0
     off, _ = _scape(silver=0.0, thin_edge=0.0)
@@ -100,22 +147,113 @@ def test_silver_lining_faces_the_sun_and_edges_fade():
                                                      if g.get("id", "").startswith("rim")]
 
 
-def test_ground_shadows_fall_away_from_the_sun_nearer_for_near_clouds():
-    root, _ = _scape(horizon=0.2, base_level=0.5, ground="#6f8f4e", sun_x=-0.6, sun_y=0.8, perspective=0.4)
-    ground = [g for g in root.findall(SVG + "g") if g.get(INK + "label") == "ground"][0]
-    shadows = {e.get("id"): e for e in ground.iter(SVG + "ellipse")}
-    assert set(shadows) == {"shadow-of-cloud-1", "shadow-of-cloud-2"}
-    horizon_y = 90.0 * 0.8
-    for e in shadows.values():
-        assert float(e.get("cy")) > horizon_y and e.get("filter")
-    far, near = shadows["shadow-of-cloud-1"], shadows["shadow-of-cloud-2"]
-    assert float(near.get("cy")) > float(far.get("cy"))             # nearer cloud, nearer shadow
-    assert float(near.get("ry")) / float(near.get("rx")) > float(far.get("ry")) / float(far.get("rx"))
-    assert float(near.get("cx")) > 50.0                               # sun from the left: shadow shifted right
+def _shoelace(p: np.ndarray) -> tuple[float, np.ndarray]:
+    x, y = p[:, 0], p[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    area = cross.sum() / 2
+    c = np.array([((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]) / (6 * area)
+    return abs(area), c
+
+
+def _reified(raw: bytes, tmp_path) -> dict[str, np.ndarray]:
+    """Every use/path with an id, as page points with all transforms applied (read by svgelements)."""
+    f = tmp_path / "scape.svg"
+    f.write_bytes(raw)
+    out = {}
+    for e in svgelements.SVG.parse(str(f)).elements():
+        ident = getattr(e, "id", None)
+        path = e if isinstance(e, svgelements.Path) else next((c for c in e if isinstance(c, svgelements.Path)), None) \
+            if isinstance(e, svgelements.Use) else None
+        if ident and path is not None:
+            out[ident] = np.array([(s.end.x, s.end.y) for s in path if isinstance(s, (svgelements.Move, svgelements.Line))])
+    return out
+
+
+def test_ground_shadow_is_the_clouds_outline_projected_along_the_sun(tmp_path):
+    sun3 = np.array([-0.6, 0.8, 0.9]) / np.linalg.norm([-0.6, 0.8, 0.9])
+    root, raw = _scape(horizon=0.2, base_level=0.5, ground="#6f8f4e", sun_x=-0.6, sun_y=0.8, sun_z=0.9,
+                       perspective=0.4, flatten=0.3, width=150, thin_edge=0.0, silver=0.0, self_shadow=0.0)
+    shapes = _reified(raw, tmp_path)
+    y_h = 90.0 * 0.8
+    layers = {g.get(INK + "label"): g for g in root.findall(SVG + "g")}
+    results = {}
+    for k, label in ((1, "cloud 1 (depth 0)"), (2, "cloud 2 (depth 1)")):
+        qx, ty, sc, sy, _, neg_qy = (float(v) for v in re.findall(r"-?[\d.]+", layers[label].get("transform")))
+        m = (sc, 0.0, 0.0, sy, qx - sc * qx, ty + sy * neg_qy)        # translate(qx,ty) scale(sc,sy) translate(-qx,-qy)
+        outline = [p for p in root.iter(SVG + "path") if p.get("id") == f"outline{k - 1}"][0].get("d")
+        page_pts = np.array(re.findall(r"(-?[\d.]+),(-?[\d.]+)", outline), float)
+        drawn = page_pts @ np.array([[m[0], m[1]], [m[2], m[3]]]) + [m[4], m[5]]
+        shadow = shapes[f"shadow-of-cloud-{k}"]
+        assert len(shadow) == len(drawn)
+        scale = m[0]
+        y_b, y_g = drawn[:, 1].max(), y_h + GROUND_REACH * (90.0 - y_h) * scale
+        # expected from the light path: height above the base Z, base y_g - y_b above the ground
+        z = y_b - drawn[:, 1]
+        want = np.column_stack([drawn[:, 0] - (y_g - y_b + z) * sun3[0] / sun3[1],
+                                y_g - z * sun3[2] / sun3[1] * (y_g - y_h) / 90.0])
+        assert np.allclose(shadow, want, atol=1e-2)
+        a_d, c_d = _shoelace(drawn)
+        a_s, c_s = _shoelace(shadow)
+        q = sun3[2] / sun3[1] * (y_g - y_h) / 90.0
+        assert a_s == pytest.approx(q * a_d, rel=1e-3)                  # foreshortened by q, not sheared in area
+        z_c = y_b - c_d[1]
+        assert np.allclose(c_s, [c_d[0] - (y_g - y_b + z_c) * sun3[0] / sun3[1], y_g - q * z_c], atol=1e-2)
+        assert shadow[:, 1].max() == pytest.approx(y_g, abs=1e-2) and shadow[:, 1].min() > y_h   # on the ground
+        assert c_s[0] > c_d[0]                                          # sun from the left: cast to the right
+        results[k] = (y_g, q)
+    assert results[2][0] > results[1][0] and results[2][1] > results[1][1]   # nearer: lower, less foreshortened
+    use = [u for u in root.iter(SVG + "use") if u.get("id") == "shadow-of-cloud-2"][0]
+    assert use.get("filter")
     with pytest.raises(InputError, match="horizon"):
         _scape(horizon=None, ground="#6f8f4e")
+    with pytest.raises(InputError, match="sun_z"):
+        _scape(horizon=0.2, base_level=0.5, ground="#6f8f4e", sun_z=0.0)
     with pytest.raises(InputError, match="self_shadow"):
         _scape(self_shadow=1.5)
+    with pytest.raises(InputError, match="outline"):
+        _scape(outline="smooth")
+
+
+def test_horizon_clouds_are_smaller_paler_and_fixed_by_the_outlines():
+    kw = dict(horizon=0.2, base_level=0.5, haze_clouds=12, perspective=0.4, sky_horizon="#c9def2")
+    root, raw = _scape(**kw)
+    assert raw == _scape(**kw)[1]                                   # same outlines, same haze, byte for byte
+    layers = [g.get(INK + "label") for g in root.findall(SVG + "g")]
+    assert layers == ["sky", "horizon clouds", "cloud 1 (depth 0)", "cloud 2 (depth 1)"]
+    haze = [g for g in root.findall(SVG + "g") if g.get(INK + "label") == "horizon clouds"][0]
+    subs = haze.findall(SVG + "g")
+    assert len(subs) == 12 and all(g.get(INK + "groupmode") == "layer" for g in subs)
+    far = [g for g in root.findall(SVG + "g") if g.get(INK + "label") == "cloud 1 (depth 0)"][0]
+    far_scale = float(re.findall(r"-?[\d.]+", far.get("transform"))[2])
+    stops = _stops(root)
+    sky = np.array([int("c9def2"[k:k + 2], 16) for k in (0, 2, 4)])
+
+    def paleness(ident: str) -> float:     # distance of the top colour from the horizon sky (smaller = paler)
+        c = stops[ident][0].get("stop-color")
+        return float(np.abs(np.array([int(c[k:k + 2], 16) for k in (1, 3, 5)]) - sky).sum())
+
+    y_h = 90.0 * 0.8
+    for g in subs:
+        u = g.find(SVG + "use")
+        m = [float(v) for v in re.findall(r"-?[\d.]+", u.get("transform"))]
+        assert abs(m[0]) < 0.6 * far_scale and 0 < m[3] < abs(m[0])    # smaller than the far cloud, and flatter
+        assert paleness(u.get("fill")[5:-1]) < paleness("body0")          # paler than the far cloud
+    moved, _ = _scape(**kw, sun_x=-0.5)
+    assert moved.findall(SVG + "g")[1].findall(SVG + "g")[0].find(SVG + "use").get("transform") == \
+        subs[0].find(SVG + "use").get("transform")                      # not the light: the outlines fix them
+    with pytest.raises(InputError, match="haze_clouds"):
+        _scape(horizon=None, haze_clouds=3)
+
+
+def test_texture_is_lit_noise_and_off_by_default():
+    root, _ = _scape(texture=0.4)
+    tex = [f for f in root.iter(SVG + "filter") if f.get("id", "").startswith("texture")]
+    assert len(tex) == 2
+    for f in tex:
+        assert f.find(SVG + "feTurbulence").get("type") == "fractalNoise"
+        assert f.find(SVG + "feDiffuseLighting").find(SVG + "feDistantLight") is not None
+    plain, _ = _scape()
+    assert not [f for f in plain.iter(SVG + "filter") if f.get("id", "").startswith("texture")]
 
 
 def test_limit_jitter_varies_each_curves_limit_and_zero_keeps_the_thesis():

@@ -1,30 +1,38 @@
-"""The cloudscape drawn as an illustrator would: lit lobes that shade one another, silver linings,
-grey flat bases, aerial perspective, and cloud shadows on the ground.
+"""The cloudscape drawn as an illustrator would: soft lit lobes, light that dims through the cloud's
+depth, silver linings, grey flat bases, aerial perspective down to many small hazy clouds at the
+horizon, and each cloud's own shadow projected on the ground.
 
 The thesis grows one outline (section 1.2 names layering outlines into scenes as a use it did not
 build). Each snaxel curve is one rounded bulge (section 3.4), so a cloud is drawn as its lobes:
-discs lit from a sun direction. What makes a photograph of fair-weather cumulus read as volume
-rather than cut-out, and how it is drawn here, all in plain SVG (gradients, clip paths and one
-Gaussian-blur filter per cloud, which Inkscape and Chromium both render):
+soft-edged domes lit from a sun direction. What makes a photograph of fair-weather cumulus read as
+volume rather than cut-out, and how it is drawn here, all in plain SVG (gradients, clip paths,
+masks, ``<use>`` clones and Gaussian-blur / turbulence / diffuse-lighting filters, which Inkscape
+and Chromium both render):
 
-* self-shadowing: a lobe nearer the sun (in front of or above another, seen along the sun
-  direction) casts a soft shadow on the lobes behind and below it (a blurred disc offset away
-  from the sun), and a lobe whose sunward rim lies inside nearer lobes is itself darker
+* soft lobes: each lobe's radial gradient fades to transparent at its rim, so no circle edge shows
+  inside the silhouette; a lobe whose sunward rim lies inside lobes nearer the sun is darker
   (:func:`occlusion`);
-* thin edges: the cloud is masked by its own blurred silhouette, so thin fringes and the rim are
-  translucent, and the rim facing the sun is brighter than the lit domes (a silver lining);
-* flat grey bases, and clouds smaller, flatter and paler toward the horizon (aerial perspective);
-* with ``ground``, the land below the horizon carries each cloud's soft shadow, cast away from the
-  sun and foreshortened with distance.
+* volume light: the silhouette, shifted away from the sun by growing distances and blurred, greys
+  the cloud where light has crossed more cloud to reach it (:func:`light_depth` counts it);
+* texture finer than a lobe (``texture``): fractal noise lit from the sun (cauliflower bumps);
+* rounded edges (``outline = "rounded"``): the snaxel fringe opened and closed by a disc (shapely
+  buffers), the thesis outline (``"snaxel"``) kept as the default; thin edges translucent through
+  a blurred silhouette mask, the sunward rim brighter than the domes (a silver lining);
+* aerial perspective: far clouds smaller, flatter and paler, down to ``haze_clouds`` small clones
+  of the grown outlines in the band above the horizon;
+* with ``ground``, each cloud's shadow is its own outline projected along the sun onto the ground
+  (:func:`ground_projection`), foreshortened and blurred.
 """
 from __future__ import annotations
 
+import hashlib
 from typing import Any
 
 import numpy as np
+import shapely
 
 from procgen import InputError
-from procgen.exchange.svg import finish, fmt_number
+from procgen.exchange.svg import finish, fmt_number, path_data
 
 from .svgdoc import Page, curve_pieces, domain_box, mix, need
 
@@ -32,7 +40,18 @@ RIM_SAMPLES = 9
 """Points on the sunward half of a lobe's rim tested for cover by nearer lobes."""
 
 SHADE_LEVELS = 4
-"""Self-shadow darkness is drawn in this many steps per cloud (one gradient each)."""
+"""Lobe occlusion darkness is drawn in this many steps per cloud (one gradient each)."""
+
+DEPTH_STEPS = 3
+"""Shifted silhouettes drawn for the light's path through a cloud (each one more step of cloud)."""
+
+DEPTH_REACH = 0.45
+"""The deepest shift, as a fraction of the cloud's height."""
+
+GROUND_REACH = 0.9
+"""How far down the ground band (horizon .. page bottom) the nearest cloud's shadow base lands."""
+
+OUTLINES = ("snaxel", "rounded")
 
 
 def lobes(pts: np.ndarray, cv: np.ndarray, min_len: float) -> list[tuple[np.ndarray, float]]:
@@ -65,52 +84,133 @@ def occlusion(centres: np.ndarray, radii: np.ndarray, sun: np.ndarray) -> np.nda
     return inside.any(axis=2).mean(axis=1)
 
 
+def depth_shifts(sun: np.ndarray, height: float) -> np.ndarray:
+    """(DEPTH_STEPS, 2) model-space shifts of the silhouette away from the sun: a point covered by
+    the k-th shifted copy has cloud at k/DEPTH_STEPS of DEPTH_REACH x height toward the sun."""
+    k = np.arange(1, DEPTH_STEPS + 1)[:, None] / DEPTH_STEPS
+    return -k * DEPTH_REACH * height * sun[None, :]
+
+
+def light_depth(outline: np.ndarray, sun: np.ndarray, height: float, probes: np.ndarray) -> np.ndarray:
+    """How many shifted silhouettes cover each probe point (0 .. DEPTH_STEPS): the steps of cloud
+    the sunlight crossed to reach it, as the drawing shades it (before the blur)."""
+    poly = shapely.Polygon(outline)
+    cover = np.zeros(len(probes), int)
+    for s in depth_shifts(sun, height):
+        cover += shapely.contains_xy(poly, probes[:, 0] - s[0], probes[:, 1] - s[1])
+    return cover
+
+
+def rounded(pts: np.ndarray, radius: float) -> np.ndarray:
+    """The outline opened then closed by a disc of ``radius``: fringe spikes and necks thinner than
+    the disc are cut, notches narrower than it filled, every convex corner rounded. The largest
+    part's exterior, counter-clockwise like the snake (model, y up)."""
+    poly = shapely.make_valid(shapely.Polygon(pts))
+    soft = poly.buffer(-radius, quad_segs=4).buffer(2 * radius, quad_segs=4).buffer(-radius, quad_segs=4)
+    parts = [g for g in getattr(soft, "geoms", [soft]) if isinstance(g, shapely.Polygon) and not g.is_empty]
+    if not parts:
+        return pts
+    best = shapely.orient_polygons(max(parts, key=lambda g: g.area))
+    return np.asarray(best.exterior.coords)[:-1]
+
+
+def ground_projection(sun3: np.ndarray, y_h: float, y_g: float, y_b: float, page_h: float) -> tuple[float, ...]:
+    """SVG matrix (a, b, c, d, e, f) taking a drawn cloud point (page, y down) to its shadow.
+
+    A point at height Z above its cloud's base (Z = y_b - y on the page) stands base_height + Z
+    above the ground, base_height = y_g - y_b (the base's height over where its shadow lands); light along the unit sun vector (x right, y up, z toward the viewer) carries
+    it sideways by (base_height + Z) sun_x / sun_y (away from the sun) and back, away from the
+    viewer, by Z sun_z / sun_y. On the page the shadow of the base lands at y_g (nearer clouds
+    lower), and depth is foreshortened by the ground's slope there, (y_g - y_h) / page_h per page
+    unit: to first order (one affine map per cloud) x' = x - (base_height + y_b - y) sun_x/sun_y,
+    y' = y_g - q (y_b - y), q = sun_z/sun_y (y_g - y_h)/page_h.
+    """
+    base_height = y_g - y_b
+    rho = -sun3[0] / sun3[1]
+    q = sun3[2] / sun3[1] * (y_g - y_h) / page_h
+    return (1.0, 0.0, -rho, q, rho * (base_height + y_b), y_g - q * y_b)
+
+
 def _blur(dwg: Any, ident: str, std: float) -> str:
     f = dwg.defs.add(dwg.filter(id=ident, x="-50%", y="-50%", width="200%", height="200%"))
     f.feGaussianBlur(in_="SourceGraphic", stdDeviation=fmt_number(std))
     return f"url(#{ident})"
 
 
+def _matrix(m: tuple[float, ...]) -> str:
+    return "matrix(" + " ".join(fmt_number(v) for v in m) + ")"
+
+
+def _hash_rng(pts: np.ndarray) -> np.random.Generator:
+    """A random stream fixed by the outlines themselves: the same recipe and seed draw the same haze."""
+    return np.random.default_rng(int.from_bytes(hashlib.sha256(np.ascontiguousarray(pts).tobytes()).digest()[:8], "little"))
+
+
+def _compose(p: tuple[float, ...], t: tuple[float, ...]) -> tuple[float, ...]:
+    """SVG matrix p after t (p(t(x)))."""
+    a, b, c, d, e, f = p
+    A, B, C, D, E, F = t
+    return (a * A + c * B, b * A + d * B, a * C + c * D, b * C + d * D, a * E + c * F + e, b * E + d * F + f)
+
+
 def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, width: float = 1000,
                    units: str = "px", sky: bool = True, sky_top: str = "#3f78c0", sky_horizon: str = "#c9def2",
                    lit: str = "#ffffff", shade: str = "#9aa6b8", sun_x: float = -0.55, sun_y: float = 0.85,
-                   lobe_min: float = 0.04, perspective: float = 0.45, flatten: float = 0.35,
+                   sun_z: float = 1.2, lobe_min: float = 0.04, perspective: float = 0.45, flatten: float = 0.35,
                    soft: float = 0.0, horizon: float | None = 0.08, base_level: float = 0.42,
                    self_shadow: float = 0.5, silver: float = 0.9, thin_edge: float = 0.012,
-                   ground: str | None = None, ground_shadow: float = 0.35, title: str = "") -> bytes:
+                   outline: str = "snaxel", round_radius: float = 0.03, texture: float = 0.0,
+                   haze_clouds: int = 0, ground: str | None = None, ground_shadow: float = 0.35,
+                   title: str = "") -> bytes:
     """Clouds as an illustrator draws them, back to front, one Inkscape layer per cloud.
 
-    Each cloud, clipped to its silhouette and masked by its blurred silhouette (``thin_edge``: the
-    blur as a fraction of the cloud's height), so its rim fades into the sky and fringes thinner
-    than about twice that are translucent: the body lit above and greyer below, one disc per lobe (each snaxel curve is a
-    bulge, thesis section 3.4), drawn from the far side of the sun to the near side, each first
-    casting a soft shadow away from the sun onto the lobes already drawn and filled with a radial
-    gradient whose bright focus leans towards the sun (``sun_x``, ``sun_y``, y up), darkened by
-    up to ``self_shadow`` of the way to the shade colour by its :func:`occlusion`; then a grey band
-    along the base (the shadowed underside of a cumulus) and a bright rim on the sunward edge
-    (``silver``: its opacity). Far clouds (low cloud__depth) are drawn smaller and flatter about
-    their base (``perspective``, ``flatten``) and mixed towards the horizon colour. With
+    Each cloud's outline is the snaxel contour (``outline = "snaxel"``, the thesis) or that
+    contour opened and closed by a disc of ``round_radius`` x its height (``"rounded"``: spikes
+    cut, edges rounded). The cloud is clipped to it and masked by its blurred copy (``thin_edge``:
+    the blur as a fraction of the cloud's height), so its rim fades into the sky and thin fringes
+    are translucent. Inside: the body lit above and greyer below; one soft disc per lobe (each
+    snaxel curve is a bulge, thesis section 3.4) whose radial gradient leans its bright focus to
+    the sun (``sun_x``, ``sun_y``, y up) and fades out at its rim, darkened by up to
+    ``self_shadow`` of the way to the shade colour by its :func:`occlusion`; the silhouette
+    shifted away from the sun in DEPTH_STEPS steps and blurred, each at ``self_shadow`` / 2
+    opacity, so light dims with the cloud it crossed (:func:`light_depth`); with ``texture`` > 0
+    (0..1) fractal bumps a few percent of the cloud's height across, lit from the sun; a grey
+    band along the base; a bright sunward rim (``silver``: its opacity). Far clouds (low
+    cloud__depth) are drawn smaller and flatter (``perspective``, ``flatten``) and paler. With
     ``horizon`` (a fraction of the page height from the bottom; None: bases stay where they grew)
-    every base is moved onto one condensation plane seen in perspective: a cloud drawn at scale s
-    has its base at horizon + s (base_level - horizon). ``ground`` (a colour; needs ``horizon``)
-    fills the page below the horizon on a "ground" layer carrying each cloud's blurred shadow
-    (opacity ``ground_shadow``), cast away from the sun and nearer the viewer for nearer clouds.
-    ``soft`` > 0 blurs the edges by that fraction of a cloud's height; ``sky`` = false leaves the
+    every base sits on one condensation plane seen in perspective: a cloud drawn at scale s has
+    its base at horizon + s (base_level - horizon); ``haze_clouds`` more clouds, clones of the
+    grown outlines at a fraction of the farthest cloud's scale, flatter and paler, fill the band
+    above the horizon (placed by a random stream fixed by the outlines). ``ground`` (a colour;
+    needs ``horizon``) fills the page below the horizon on a "ground" layer carrying each cloud's
+    shadow: its drawn outline projected along the sun vector (``sun_x``, ``sun_y``, ``sun_z``
+    toward the viewer) by :func:`ground_projection`, blurred, at opacity ``ground_shadow``.
+    ``soft`` > 0 blurs whole clouds by that fraction of their height; ``sky`` = false leaves the
     background empty.
     """
     if horizon is not None and not 0.0 <= horizon < base_level <= 1.0:
         raise InputError(f"cloudscape_svg: need 0 <= horizon < base_level <= 1, got {horizon}, {base_level}")
     if ground is not None and horizon is None:
         raise InputError("cloudscape_svg: ground needs a horizon (a fraction of the page height)")
+    if haze_clouds and horizon is None:
+        raise InputError("cloudscape_svg: haze_clouds needs a horizon (a fraction of the page height)")
     for name, v in (("self_shadow", self_shadow), ("silver", silver), ("thin_edge", thin_edge),
-                    ("ground_shadow", ground_shadow)):
+                    ("ground_shadow", ground_shadow), ("texture", texture), ("round_radius", round_radius)):
         if not 0.0 <= v <= 1.0:
             raise InputError(f"cloudscape_svg: {name} = {v!r}: expected 0..1")
+    if outline not in OUTLINES:
+        raise InputError(f"cloudscape_svg: outline = {outline!r}: expected one of {', '.join(OUTLINES)}")
+    if not 0 <= int(haze_clouds) <= 500:
+        raise InputError(f"cloudscape_svg: haze_clouds = {haze_clouds!r}: expected 0..500")
+    if ground is not None and not (sun_y > 0 and sun_z > 0):
+        raise InputError(f"cloudscape_svg: ground shadows need the sun above the ground and toward the viewer "
+                         f"(sun_y > 0, sun_z > 0), got sun_y = {sun_y}, sun_z = {sun_z}")
     dom = need(domain, "cloudscape_svg", "cloud__depth")
     norm = float(np.hypot(sun_x, sun_y))
     if norm == 0:
         raise InputError("cloudscape_svg: sun_x and sun_y are both 0 (no sun direction)")
     sun = np.array([sun_x, sun_y]) / norm
+    sun3 = np.array([sun_x, sun_y, sun_z]) / float(np.linalg.norm([sun_x, sun_y, sun_z]))
     page = Page(domain_box(dom), width, units)
     dwg = page.dwg
     if sky:
@@ -119,78 +219,157 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         grad.add_stop_color(1, sky_horizon)
         dwg.defs.add(grad)
         page.layer("sky").add(dwg.rect(insert=(0, 0), size=(fmt_number(page.w), fmt_number(page.h)), fill="url(#sky)"))
+    y_h = page.h * (1.0 - horizon) if horizon is not None else page.h
     land = None
     if ground is not None:
-        y_h = page.h * (1.0 - horizon)
         grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id="ground")
         grad.add_stop_color(0, mix(ground, sky_horizon, 0.6))      # haze at the horizon
         grad.add_stop_color(1, ground)
         dwg.defs.add(grad)
-        land = page.layer("ground")
-        land.add(dwg.rect(insert=(0, fmt_number(y_h)), size=(fmt_number(page.w), fmt_number(page.h - y_h)),
-                          fill="url(#ground)"))
+        layer = page.layer("ground")
+        layer.add(dwg.rect(insert=(0, fmt_number(y_h)), size=(fmt_number(page.w), fmt_number(page.h - y_h)),
+                           fill="url(#ground)"))
+        clip = dwg.defs.add(dwg.clipPath(id="land"))
+        clip.add(dwg.rect(insert=(0, fmt_number(y_h)), size=(fmt_number(page.w), fmt_number(page.h - y_h))))
+        land = layer.add(dwg.g(clip_path="url(#land)"))
     depth = dom["cloud__depth"]
     curve = dom["snaxel__curve"] if "snaxel__curve" in dom else np.zeros(len(dom.points), np.int64)
     n = max(int(depth.max()) + 1, 1)
+    heights = np.array([np.ptp(dom.points[dom.offsets[i]:dom.offsets[i + 1], 1]) for i in range(len(depth))])
+    for i in range(len(depth)):     # each outline once, in defs; every other use is a <use> clone
+        pts = dom.points[dom.offsets[i]:dom.offsets[i + 1]]
+        shape = rounded(pts, round_radius * heights[i]) if outline == "rounded" else pts
+        dwg.defs.add(dwg.path(d=page.d(shape), id=f"outline{i}"))
+    if haze_clouds:
+        _haze(dwg, page, dom, heights, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
+              lit, shade, sky_horizon)
     for i in np.argsort(depth, kind="stable"):
         far = 1.0 - (float(depth[i]) / (n - 1) if n > 1 else 1.0)
-        a, b = dom.offsets[i], dom.offsets[i + 1]
-        pts, cv = dom.points[a:b], curve[a:b]
+        pts, cv = dom.points[dom.offsets[i]:dom.offsets[i + 1]], curve[dom.offsets[i]:dom.offsets[i + 1]]
         (qx, qy) = page.xy(np.array([[pts[:, 0].mean(), pts[:, 1].min()]]))[0]
-        height = float(np.ptp(pts[:, 1]))
+        height = float(heights[i])
         sc = 1.0 - perspective * far
+        sy = sc * (1 - flatten * far)
         top = mix(lit, sky_horizon, 0.45 * far)
         bottom = mix(shade, sky_horizon, 0.55 * far)
-        body = mix(top, bottom, 0.3)
         ty = qy if horizon is None else page.h * (1.0 - horizon - sc * (base_level - horizon))
-        tf = (f"translate({fmt_number(qx)},{fmt_number(ty)}) scale({fmt_number(sc)},{fmt_number(sc * (1 - flatten * far))}) "
-              f"translate({fmt_number(-qx)},{fmt_number(-qy)})")
+        tf = (sc, 0.0, 0.0, sy, qx - sc * qx, ty - sy * qy)
         if land is not None:
-            _ground_shadow(dwg, land, page, i, pts, qx, sc, perspective, sun, horizon, ground, ground_shadow)
-        attrs: dict[str, Any] = {"transform": tf}
+            y_g = y_h + GROUND_REACH * (page.h - y_h) * sc
+            sh = _compose(ground_projection(sun3, y_h, y_g, ty, page.h), tf)
+            std = 0.25 * sh[3] * height + 0.004 * page.h
+            land.add(dwg.use(f"#outline{i}", transform=_matrix(sh), fill=mix(ground, "#000000", 0.55),
+                             fill_opacity=fmt_number(ground_shadow), filter=_blur(dwg, f"ground-shadow{i}", std),
+                             id=f"shadow-of-cloud-{int(i) + 1}"))
+        attrs: dict[str, Any] = {"transform": f"translate({fmt_number(qx)},{fmt_number(ty)}) scale({fmt_number(sc)},"
+                                              f"{fmt_number(sy)}) translate({fmt_number(-qx)},{fmt_number(-qy)})"}
         if soft > 0:
             attrs["filter"] = _blur(dwg, f"soft{i}", soft * height)
         layer = page.layer(f"cloud {int(i) + 1} (depth {int(depth[i])})", **attrs)
-        d = page.d(pts)
-        clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
-        clip.add(dwg.path(d=d))
-        g = dwg.g(clip_path=f"url(#cloud{i})")
-        if thin_edge > 0:     # the silhouette's alpha blurred: the rim fades, thin fringes are see-through
-            mask = dwg.defs.add(dwg.mask(id=f"edge{i}"))
-            mask.add(dwg.path(d=d, fill="#ffffff", filter=_blur(dwg, f"edge-blur{i}", thin_edge * height)))
-            g["mask"] = f"url(#edge{i})"
-        fill = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"body{i}")    # lit above, greyer below
-        fill.add_stop_color(0.0, top)
-        fill.add_stop_color(1.0, body)
-        dwg.defs.add(fill)
-        g.add(dwg.path(d=d, fill=f"url(#body{i})"))
-        found = lobes(pts, cv, lobe_min * height)
-        if found:
-            _draw_lobes(dwg, g, page, i, found, sun, top, bottom, self_shadow)
-        base = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"base{i}")
-        base.add_stop_color(0.55, bottom, 0.0)
-        base.add_stop_color(1.0, bottom, 0.85)
-        dwg.defs.add(base)
-        x0, y0 = page.xy(np.array([[pts[:, 0].min(), pts[:, 1].max()]]))[0]
-        g.add(dwg.rect(insert=(fmt_number(x0), fmt_number(y0)), size=(fmt_number(np.ptp(pts[:, 0])), fmt_number(height)),
-                       fill=f"url(#base{i})"))
-        if silver > 0:     # the sunward edge, brighter than the domes: a stroke whose inner half the clip keeps
-            rim = dwg.linearGradient(start=(fmt_number(0.5 - 0.5 * sun[0]), fmt_number(0.5 + 0.5 * sun[1])),
-                                     end=(fmt_number(0.5 + 0.5 * sun[0]), fmt_number(0.5 - 0.5 * sun[1])), id=f"rim{i}")
-            rim.add_stop_color(0.0, "#ffffff", 0.0)
-            rim.add_stop_color(0.55, "#ffffff", 0.0)
-            rim.add_stop_color(1.0, "#ffffff", silver)
-            dwg.defs.add(rim)
-            g.add(dwg.path(d=d, fill="none", stroke=f"url(#rim{i})", stroke_width=fmt_number(0.05 * height),
-                           stroke_linejoin="round"))
-        layer.add(g)
+        _draw_cloud(dwg, layer, page, int(i), pts, cv, height, sun, top, bottom, lobe_min, self_shadow, silver,
+                    thin_edge, texture)
     return finish(dwg, provenance, title or "snaxel cloudscape")
+
+
+def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: np.ndarray, height: float,
+                sun: np.ndarray, top: str, bottom: str, lobe_min: float, self_shadow: float, silver: float,
+                thin_edge: float, texture: float) -> None:
+    """One cloud inside its clip (and edge mask), in the cloud's own page coordinates."""
+    ref = f"#outline{i}"
+    clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
+    clip.add(dwg.use(ref))
+    g = dwg.g(clip_path=f"url(#cloud{i})")
+    if thin_edge > 0:     # the silhouette's alpha blurred: the rim fades, thin fringes are see-through
+        mask = dwg.defs.add(dwg.mask(id=f"edge{i}"))
+        mask.add(dwg.use(ref, fill="#ffffff", filter=_blur(dwg, f"edge-blur{i}", thin_edge * height)))
+        g["mask"] = f"url(#edge{i})"
+    fill = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"body{i}")    # lit above, greyer below
+    fill.add_stop_color(0.0, top)
+    fill.add_stop_color(1.0, mix(top, bottom, 0.3))
+    dwg.defs.add(fill)
+    g.add(dwg.use(ref, fill=f"url(#body{i})"))
+    found = lobes(pts, cv, lobe_min * height)
+    if found:
+        _draw_lobes(dwg, g, page, i, found, sun, top, bottom, self_shadow)
+    if self_shadow > 0:   # light dims through the cloud: its silhouette shifted away from the sun, blurred
+        blur = _blur(dwg, f"depth{i}", 0.12 * height)
+        for s in depth_shifts(sun, height):
+            g.add(dwg.use(ref, transform=f"translate({fmt_number(s[0])},{fmt_number(-s[1])})", fill=bottom,
+                          fill_opacity=fmt_number(0.5 * self_shadow), filter=blur))
+    x0, y0 = page.xy(np.array([[pts[:, 0].min(), pts[:, 1].max()]]))[0]
+    box = {"insert": (fmt_number(x0), fmt_number(y0)), "size": (fmt_number(np.ptp(pts[:, 0])), fmt_number(height))}
+    if texture > 0:
+        g.add(dwg.rect(**box, fill=bottom, filter=_texture(dwg, i, height, sun, bottom, texture)))
+    base = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"base{i}")
+    base.add_stop_color(0.55, bottom, 0.0)
+    base.add_stop_color(1.0, bottom, 0.85)
+    dwg.defs.add(base)
+    g.add(dwg.rect(**box, fill=f"url(#base{i})"))
+    if silver > 0:     # the sunward edge, brighter than the domes: a stroke whose inner half the clip keeps
+        rim = dwg.linearGradient(start=(fmt_number(0.5 - 0.5 * sun[0]), fmt_number(0.5 + 0.5 * sun[1])),
+                                 end=(fmt_number(0.5 + 0.5 * sun[0]), fmt_number(0.5 - 0.5 * sun[1])), id=f"rim{i}")
+        rim.add_stop_color(0.0, "#ffffff", 0.0)
+        rim.add_stop_color(0.55, "#ffffff", 0.0)
+        rim.add_stop_color(1.0, "#ffffff", silver)
+        dwg.defs.add(rim)
+        g.add(dwg.use(ref, fill="none", stroke=f"url(#rim{i})", stroke_width=fmt_number(0.06 * height),
+                      stroke_linejoin="round", filter=_blur(dwg, f"rim-blur{i}", 0.012 * height)))
+    layer.add(g)
+
+
+def _texture(dwg: Any, i: int, height: float, sun: np.ndarray, colour: str, strength: float) -> str:
+    """Cauliflower bumps finer than a lobe: fractal noise as a height map lit from the sun
+    (feDiffuseLighting), its dark sides turned into ``colour`` at up to ``strength`` opacity."""
+    f = dwg.defs.add(dwg.filter(id=f"texture{i}", x="0", y="0", width="1", height="1"))
+    f.feTurbulence(type="fractalNoise", baseFrequency=fmt_number(1.0 / (0.05 * height)), numOctaves=3,
+                   seed=i + 1, result="bumps")
+    light = f.feDiffuseLighting(in_="bumps", surfaceScale=fmt_number(0.04 * height), diffuseConstant=1,
+                                lighting_color="#ffffff", result="lit")
+    light.feDistantLight(azimuth=fmt_number(np.degrees(np.arctan2(-sun[1], sun[0]))), elevation=35)
+    r, gr, b = (int(colour[k:k + 2], 16) / 255 for k in (1, 3, 5))
+    a = strength / 3
+    f.feColorMatrix(in_="lit", type="matrix", values=" ".join(fmt_number(v) for v in (
+        0, 0, 0, 0, r, 0, 0, 0, 0, gr, 0, 0, 0, 0, b, -a, -a, -a, 0, strength)))
+    return f"url(#texture{i})"
+
+
+def _haze(dwg: Any, page: Page, dom: Any, heights: np.ndarray, count: int, y_h: float, perspective: float,
+          flatten: float, base_rise: float, lit: str, shade: str, sky_horizon: str) -> None:
+    """``count`` small far clouds above the horizon: clones of the grown outlines at 12-60 % of the
+    farthest cloud's scale, on the same condensation plane (so smaller sits lower), flatter and
+    paler the farther; a layer "horizon clouds" with one sub-layer per cloud, farthest first."""
+    rng = _hash_rng(dom.points)
+    k = len(heights)
+    u = np.sort(rng.uniform(0.12, 0.6, count))
+    src = rng.integers(0, k, count)
+    flip = rng.choice([-1.0, 1.0], count)
+    xs = rng.uniform(0.0, page.w, count)
+    group = page.layer("horizon clouds")
+    blurs = {}
+    for j in range(count):
+        s = (1.0 - perspective) * u[j]
+        pts = dom.points[dom.offsets[src[j]]:dom.offsets[src[j] + 1]]
+        (qx, qy) = page.xy(np.array([[pts[:, 0].mean(), pts[:, 1].min()]]))[0]
+        sx, sy = flip[j] * s, s * (1.0 - flatten) * (0.5 + 0.5 * u[j])
+        ty = y_h - s * base_rise * page.h
+        pale = 1.0 - u[j]
+        grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"haze{j}")
+        grad.add_stop_color(0.0, mix(lit, sky_horizon, 0.35 + 0.5 * pale))
+        grad.add_stop_color(1.0, mix(shade, sky_horizon, 0.55 + 0.4 * pale))
+        dwg.defs.add(grad)
+        if src[j] not in blurs:
+            blurs[src[j]] = _blur(dwg, f"haze-blur{src[j]}", 0.03 * heights[src[j]])
+        sub = group.add(dwg.g(id=f"horizon-cloud-{j + 1}"))
+        sub["inkscape:groupmode"] = "layer"
+        sub["inkscape:label"] = f"horizon cloud {j + 1}"
+        sub.add(dwg.use(f"#outline{src[j]}", transform=_matrix((sx, 0.0, 0.0, sy, xs[j] - sx * qx, ty - sy * qy)),
+                        fill=f"url(#haze{j})", filter=blurs[src[j]]))
 
 
 def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarray, float]], sun: np.ndarray,
                 top: str, bottom: str, self_shadow: float) -> None:
-    """Lobes from the far side of the sun to the near side; each casts a blurred shadow away from
-    the sun on those drawn before it, and is darkened by its occlusion (in SHADE_LEVELS steps)."""
+    """Soft lobes from the far side of the sun to the near side, darkened by their occlusion (in
+    SHADE_LEVELS steps); each gradient fades to transparent at the rim, so no circle edge shows."""
     centres = np.array([c for c, _ in found])
     radii = np.array([r for _, r in found])
     occ = occlusion(centres, radii, sun)
@@ -199,32 +378,12 @@ def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarr
         lit = mix(top, bottom, self_shadow * k / (SHADE_LEVELS - 1))
         grad = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.35 * sun[0], 0.5 - 0.35 * sun[1]),
                                   id=f"lobe{i}-{k}")
-        for off, colour in ((0.0, lit), (0.62, lit), (1.0, mix(lit, bottom, 0.45))):   # white domes, grey rim
-            grad.add_stop_color(off, colour)
+        for off, colour, alpha in ((0.0, lit, 1.0), (0.55, lit, 1.0), (0.82, mix(lit, bottom, 0.3), 0.75),
+                                   (1.0, mix(lit, bottom, 0.45), 0.0)):     # white dome, grey flank, no edge
+            grad.add_stop_color(off, colour, alpha)
         dwg.defs.add(grad)
-    cast = _blur(dwg, f"cast{i}", 0.25 * float(np.median(radii))) if self_shadow > 0 else None
     page_c = page.xy(centres)
-    away = np.array([-sun[0], sun[1]])        # away from the sun, page y-down
     for j in np.argsort(centres @ sun + radii, kind="stable"):
         cx, cy = page_c[j]
-        r = 1.15 * radii[j]
-        if cast is not None:
-            sx, sy = page_c[j] + 0.35 * r * away
-            g.add(dwg.circle(center=(fmt_number(sx), fmt_number(sy)), r=fmt_number(r), fill=bottom,
-                             fill_opacity=fmt_number(0.6 * self_shadow), filter=cast))
-        g.add(dwg.circle(center=(fmt_number(cx), fmt_number(cy)), r=fmt_number(r), fill=f"url(#lobe{i}-{level[j]})"))
-
-
-def _ground_shadow(dwg: Any, land: Any, page: Page, i: int, pts: np.ndarray, qx: float, sc: float,
-                   perspective: float, sun: np.ndarray, horizon: float, ground: str, opacity: float) -> None:
-    """The cloud's shadow on the ground: an ellipse as wide as the drawn cloud, shifted away from
-    the sun, lower on the page (nearer the viewer) and less foreshortened for nearer clouds."""
-    y_h = page.h * (1.0 - horizon)
-    near = 1.0 if perspective == 0 else (sc - (1.0 - perspective)) / perspective      # 0 far .. 1 near
-    rx = 0.5 * float(np.ptp(pts[:, 0])) * sc
-    ry = rx * (0.06 + 0.12 * near)
-    cx = qx - sun[0] * 0.6 * rx
-    cy = y_h + (page.h - y_h) * (0.15 + 0.7 * near)
-    land.add(dwg.ellipse(center=(fmt_number(cx), fmt_number(cy)), r=(fmt_number(rx), fmt_number(ry)),
-                         fill=mix(ground, "#000000", 0.55), fill_opacity=fmt_number(opacity),
-                         filter=_blur(dwg, f"ground-shadow{i}", 0.35 * ry), id=f"shadow-of-cloud-{int(i) + 1}"))
+        g.add(dwg.circle(center=(fmt_number(cx), fmt_number(cy)), r=fmt_number(1.15 * radii[j]),
+                         fill=f"url(#lobe{i}-{level[j]})"))
