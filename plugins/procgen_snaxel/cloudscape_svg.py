@@ -359,10 +359,7 @@ def _haze(dwg: Any, page: Page, dom: Any, heights: np.ndarray, count: int, y_h: 
         dwg.defs.add(grad)
         if src[j] not in blurs:
             blurs[src[j]] = _blur(dwg, f"haze-blur{src[j]}", 0.03 * heights[src[j]])
-        sub = group.add(dwg.g(id=f"horizon-cloud-{j + 1}"))
-        sub["inkscape:groupmode"] = "layer"
-        sub["inkscape:label"] = f"horizon cloud {j + 1}"
-        sub.add(dwg.use(f"#outline{src[j]}", transform=_matrix((sx, 0.0, 0.0, sy, xs[j] - sx * qx, ty - sy * qy)),
+        page.sublayer(group, f"horizon cloud {j + 1}", f"horizon-cloud-{j + 1}").add(dwg.use(f"#outline{src[j]}", transform=_matrix((sx, 0.0, 0.0, sy, xs[j] - sx * qx, ty - sy * qy)),
                         fill=f"url(#haze{j})", filter=blurs[src[j]]))
 
 
@@ -378,8 +375,8 @@ def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarr
         lit = mix(top, bottom, self_shadow * k / (SHADE_LEVELS - 1))
         grad = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.35 * sun[0], 0.5 - 0.35 * sun[1]),
                                   id=f"lobe{i}-{k}")
-        for off, colour, alpha in ((0.0, lit, 1.0), (0.55, lit, 1.0), (0.82, mix(lit, bottom, 0.3), 0.75),
-                                   (1.0, mix(lit, bottom, 0.45), 0.0)):     # white dome, grey flank, no edge
+        for off, colour, alpha in ((0.0, lit, 1.0), (0.6, lit, 0.9), (0.85, mix(lit, bottom, 0.25), 0.45),
+                                   (1.0, mix(lit, bottom, 0.35), 0.0)):     # white dome, greyer flank, no edge
             grad.add_stop_color(off, colour, alpha)
         dwg.defs.add(grad)
     page_c = page.xy(centres)

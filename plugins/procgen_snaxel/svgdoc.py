@@ -57,6 +57,13 @@ class Page:
         self.dwg.add(g)
         return g
 
+    def sublayer(self, parent: svgwrite.container.Group, label: str, ident: str) -> svgwrite.container.Group:
+        """A layer nested in ``parent`` (Inkscape lists it under the parent in its Layers panel)."""
+        g = parent.add(self.dwg.g(id=ident))
+        g["inkscape:groupmode"] = "layer"
+        g["inkscape:label"] = label
+        return g
+
     def sky(self, colour: str | None) -> None:
         """An optional background rectangle on a layer of its own ("sky")."""
         if colour:
