@@ -270,3 +270,15 @@ def test_limit_jitter_varies_each_curves_limit_and_zero_keeps_the_thesis():
     assert np.all((f5 >= np.exp(-0.5)) & (f5 <= np.exp(0.5))) and np.ptp(np.log(f5)) > 0.5
     # the jittered run grew another cloud from the same seed (its curves split at other lengths)
     assert runs[0.5].snake.xy().tobytes() != runs[0.0].snake.xy().tobytes()
+
+
+def test_procgen_check_names_a_wrong_outline_before_any_growth(host, tmp_path):
+    from procgen import RecipeError
+    from procgen.recipes import find_recipe, load_recipe
+
+    text = find_recipe("clouds/cloudscape", host).read_text()
+    assert 'outline = "rounded"' in text and "haze_clouds = 40" in text
+    bad = tmp_path / "scape.toml"
+    bad.write_text(text.replace('outline = "rounded"', 'outline = "smooth"'))
+    with pytest.raises(RecipeError, match="outline.*smooth"):
+        load_recipe(bad, host)

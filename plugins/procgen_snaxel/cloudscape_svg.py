@@ -26,7 +26,7 @@ and Chromium both render):
 from __future__ import annotations
 
 import hashlib
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 import shapely
@@ -51,7 +51,8 @@ DEPTH_REACH = 0.45
 GROUND_REACH = 0.9
 """How far down the ground band (horizon .. page bottom) the nearest cloud's shadow base lands."""
 
-OUTLINES = ("snaxel", "rounded")
+Outline = Literal["snaxel", "rounded"]
+"""The thesis's snaxel contour, or that contour rounded by :func:`rounded` (``procgen check`` reads this)."""
 
 
 def lobes(pts: np.ndarray, cv: np.ndarray, min_len: float) -> list[tuple[np.ndarray, float]]:
@@ -159,7 +160,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
                    sun_z: float = 1.2, lobe_min: float = 0.04, perspective: float = 0.45, flatten: float = 0.35,
                    soft: float = 0.0, horizon: float | None = 0.08, base_level: float = 0.42,
                    self_shadow: float = 0.5, silver: float = 0.9, thin_edge: float = 0.012,
-                   outline: str = "snaxel", round_radius: float = 0.03, texture: float = 0.0,
+                   outline: Outline = "snaxel", round_radius: float = 0.03, texture: float = 0.0,
                    haze_clouds: int = 0, ground: str | None = None, ground_shadow: float = 0.35,
                    title: str = "") -> bytes:
     """Clouds as an illustrator draws them, back to front, one Inkscape layer per cloud.
@@ -198,8 +199,8 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
                     ("ground_shadow", ground_shadow), ("texture", texture), ("round_radius", round_radius)):
         if not 0.0 <= v <= 1.0:
             raise InputError(f"cloudscape_svg: {name} = {v!r}: expected 0..1")
-    if outline not in OUTLINES:
-        raise InputError(f"cloudscape_svg: outline = {outline!r}: expected one of {', '.join(OUTLINES)}")
+    if outline not in get_args(Outline):
+        raise InputError(f"cloudscape_svg: outline = {outline!r}: expected one of {', '.join(get_args(Outline))}")
     if not 0 <= int(haze_clouds) <= 500:
         raise InputError(f"cloudscape_svg: haze_clouds = {haze_clouds!r}: expected 0..500")
     if ground is not None and not (sun_y > 0 and sun_z > 0):
