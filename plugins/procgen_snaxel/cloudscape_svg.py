@@ -237,10 +237,11 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
     curve = dom["snaxel__curve"] if "snaxel__curve" in dom else np.zeros(len(dom.points), np.int64)
     n = max(int(depth.max()) + 1, 1)
     heights = np.array([np.ptp(dom.points[dom.offsets[i]:dom.offsets[i + 1], 1]) for i in range(len(depth))])
+    shapes = []
     for i in range(len(depth)):     # each outline once, in defs; every other use is a <use> clone
         pts = dom.points[dom.offsets[i]:dom.offsets[i + 1]]
-        shape = rounded(pts, round_radius * heights[i]) if outline == "rounded" else pts
-        dwg.defs.add(dwg.path(d=page.d(shape), id=f"outline{i}"))
+        shapes.append(rounded(pts, round_radius * heights[i]) if outline == "rounded" else pts)
+        dwg.defs.add(dwg.path(d=page.d(shapes[-1]), id=f"outline{i}"))
     if haze_clouds:
         _haze(dwg, page, dom, heights, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
               lit, shade, sky_horizon)
@@ -267,12 +268,13 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         if soft > 0:
             attrs["filter"] = _blur(dwg, f"soft{i}", soft * height)
         layer = page.layer(f"cloud {int(i) + 1} (depth {int(depth[i])})", **attrs)
-        _draw_cloud(dwg, layer, page, int(i), pts, cv, height, sun, top, bottom, lobe_min, self_shadow, silver,
+        _draw_cloud(dwg, layer, page, int(i), pts, cv, shapes[i], height, sun, top, bottom, lobe_min, self_shadow, silver,
                     thin_edge, texture)
     return finish(dwg, provenance, title or "snaxel cloudscape")
 
 
-def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: np.ndarray, height: float,
+def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: np.ndarray, shape: np.ndarray,
+                height: float,
                 sun: np.ndarray, top: str, bottom: str, lobe_min: float, self_shadow: float, silver: float,
                 thin_edge: float, texture: float) -> None:
     """One cloud inside its clip (and edge mask), in the cloud's own page coordinates."""
@@ -291,7 +293,7 @@ def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: n
     g.add(dwg.use(ref, fill=f"url(#body{i})"))
     found = lobes(pts, cv, lobe_min * height)
     if found:
-        _draw_lobes(dwg, g, page, i, found, sun, top, bottom, self_shadow)
+        _draw_lobes(dwg, g, page, i, found, shape, height, sun, top, bottom, self_shadow)
     if self_shadow > 0:   # light dims through the cloud: its silhouette shifted away from the sun, blurred
         blur = _blur(dwg, f"depth{i}", 0.12 * height)
         for s in depth_shifts(sun, height):
@@ -364,14 +366,16 @@ def _haze(dwg: Any, page: Page, dom: Any, heights: np.ndarray, count: int, y_h: 
                         fill=f"url(#haze{j})", filter=blurs[src[j]]))
 
 
-def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarray, float]], sun: np.ndarray,
-                top: str, bottom: str, self_shadow: float) -> None:
-    """Soft lobes from the far side of the sun to the near side, darkened by their occlusion (in
-    SHADE_LEVELS steps); each gradient fades to transparent at the rim, so no circle edge shows."""
+def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarray, float]], shape: np.ndarray,
+                height: float, sun: np.ndarray, top: str, bottom: str, self_shadow: float) -> None:
+    """Soft lobes from the far side of the sun to the near side, each darkened (in SHADE_LEVELS
+    steps) by the larger of its occlusion and the share of DEPTH_STEPS of cloud the light crossed
+    to reach its sunward face (:func:`light_depth`); each gradient fades to transparent at the rim,
+    so no circle edge shows."""
     centres = np.array([c for c, _ in found])
     radii = np.array([r for _, r in found])
-    occ = occlusion(centres, radii, sun)
-    level = np.rint(occ * (SHADE_LEVELS - 1)).astype(int)
+    face = light_depth(shape, sun, height, centres + radii[:, None] * sun) / DEPTH_STEPS
+    level = np.rint(np.maximum(occlusion(centres, radii, sun), face) * (SHADE_LEVELS - 1)).astype(int)
     for k in np.unique(level):
         lit = mix(top, bottom, self_shadow * k / (SHADE_LEVELS - 1))
         grad = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.35 * sun[0], 0.5 - 0.35 * sun[1]),
