@@ -99,7 +99,7 @@ def test_cloudscape_one_layer_per_cloud_with_lobe_gradients():
     assert layers(root) == ["sky", "cloud 1 (depth 0)", "cloud 2 (depth 1)"]
     assert {g.get("id").split("-")[0] for g in root.iter(SVG + "radialGradient")} == {"lobe0", "lobe1"}
     lobes = [c for c in root.iter(SVG + "circle") if not c.get("filter")]
-    assert len(lobes) == 12                                               # one lobe per curve (+ cast shadows)
+    assert len(lobes) == 12                                               # one lobe per curve
     bare = ET.fromstring(cloudscape_svg(dom, sky=False))
     assert layers(bare)[0] == "cloud 1 (depth 0)"
 
