@@ -42,26 +42,35 @@ def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     lexsort): much faster than ``np.unique(axis=0)`` on millions of rows.
     """
     a = np.asarray(a)
+    order, first = _row_order(a)
+    inverse = np.empty(len(a), np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return a[order[first]], order[first], inverse
+
+
+def _row_order(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(stable order sorting the rows, whether each sorted row starts a run of equal rows)."""
     if len(a) == 0:
-        return a.reshape(0, a.shape[1]), np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return np.zeros(0, np.int64), np.zeros(0, bool)
     lo = a.min(axis=0)
     span = [int(s) for s in a.max(axis=0) - lo + 1]
+    first = np.ones(len(a), bool)
     if math.prod(span) < 2 ** 62:
         key = np.zeros(len(a), np.int64)
         for c, s in enumerate(span):
             key = key * s + (a[:, c] - lo[c])
-        order = np.argsort(key, kind="stable")
-        sk = key[order]
-        first = np.ones(len(a), bool)
+        if math.prod(span) * len(a) < 2 ** 62:
+            # row then position in one int64: a plain sort of the values is the stable order
+            sk, order = np.divmod(np.sort(key * len(a) + np.arange(len(a))), len(a))
+        else:
+            order = np.argsort(key, kind="stable")
+            sk = key[order]
         first[1:] = sk[1:] != sk[:-1]
     else:
         order = np.lexsort(a.T[::-1])
         sa = a[order]
-        first = np.ones(len(a), bool)
         first[1:] = np.any(sa[1:] != sa[:-1], axis=1)
-    inverse = np.empty(len(a), np.int64)
-    inverse[order] = np.cumsum(first) - 1
-    return a[order[first]], order[first], inverse
+    return order, first
 
 
 def box_keys(points: np.ndarray, size: float) -> np.ndarray:
@@ -97,14 +106,20 @@ class BoxIndex:
 
     @classmethod
     def from_keys(cls, cell_keys: np.ndarray, size: float) -> "BoxIndex":
-        keys, _, cell_box = unique_rows(cell_keys.reshape(-1, 3))
-        return cls.assemble(size, keys, cell_box)
+        a = cell_keys.reshape(-1, 3)
+        order, first = _row_order(a)            # the stable sort is also the cells' order
+        cell_box = np.empty(len(a), np.int64)
+        cell_box[order] = np.cumsum(first) - 1
+        return cls.assemble(size, a[order[first]], cell_box, order)
 
     @classmethod
-    def assemble(cls, size: float, keys: np.ndarray, cell_box: np.ndarray) -> "BoxIndex":
-        """Index from sorted box keys and every cell's box (cells ascending inside a box)."""
+    def assemble(cls, size: float, keys: np.ndarray, cell_box: np.ndarray,
+                 order: np.ndarray | None = None) -> "BoxIndex":
+        """Index from sorted box keys and every cell's box (cells ascending inside a box;
+        ``order``, if given, is already the cells sorted so)."""
         cell_box = np.asarray(cell_box, np.int64)
-        order = np.argsort(cell_box, kind="stable")
+        if order is None:
+            order = np.argsort(cell_box, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(cell_box, minlength=len(keys)))])
         return cls(float(size), np.asarray(keys, np.int64).reshape(-1, 3), start.astype(np.int64),
                    order.astype(np.int64), cell_box)
@@ -250,10 +265,14 @@ def _within(pi: list[np.ndarray], pj: list[np.ndarray], radius: float) -> np.nda
     """``|p_i - p_j| < radius`` from the coordinate columns of both ends: dx^2 + dy^2 + dz^2 in
     that order and one comparison against radius^2, so the box search, cKDTree and brute force
     agree bit for bit on pairs at exactly the radius."""
-    d2 = np.zeros(len(pi[0]))
+    d2 = None
     for a, b in zip(pi, pj):
         d = a - b
-        d2 += d * d
+        d *= d
+        if d2 is None:
+            d2 = d                      # 0 + dx^2 is dx^2 exactly
+        else:
+            d2 += d
     return d2 < radius * radius
 
 
@@ -319,34 +338,46 @@ def _column_sweep(points: np.ndarray, radius: float, index: BoxIndex) -> np.ndar
     col = columns.cell_box[index.cell_box]
     s = points[:, ax]
     key = col * stride + (s - base[col])
-    order = np.argsort(key, kind="stable")
-    sk, scol = key[order], col[order]
+    order = np.argsort(key)             # ties in any order: windows go by value
+    sk = key[order]
     cols = tuple(np.ascontiguousarray(points[order, k]) for k in range(3))
     pad = 1e-9 * size + 16 * float(np.spacing(max(np.abs(sk).max(), np.abs(s).max(), stride)))
     reach = radius + pad
     # own column: the cells after i in sort order up to s_i + r
     rows, lo = [np.arange(n)], [np.arange(1, n + 1)]
     hi = [np.searchsorted(sk, sk + reach, side="right")]
-    # forward neighbour columns the cell comes within r of (its box's padded cross-section)
+    # forward neighbour columns the cell comes within r of (its box's padded cross-section);
+    # a column's cells are one run of the sort order
+    per_col = np.bincount(col, minlength=columns.n_boxes)
+    col_first = np.cumsum(per_col) - per_col
     for off in FORWARD_COLUMNS:
         nb = columns.lookup(columns.keys + off)
-        i = np.nonzero(nb[scol] >= 0)[0]
+        have = np.nonzero(nb >= 0)[0]
+        cnt = per_col[have]
+        i = np.repeat(col_first[have] - (np.cumsum(cnt) - cnt), cnt) + np.arange(cnt.sum())
+        own = np.repeat(have, cnt)
         gap2 = np.zeros(len(i))
-        for d, c, k in ((off[0], cols[o1][i], columns.keys[scol[i], 0]),
-                        (off[1], cols[o2][i], columns.keys[scol[i], 1])):
+        for d, c, k in ((off[0], cols[o1][i], columns.keys[own, 0]),
+                        (off[1], cols[o2][i], columns.keys[own, 1])):
             if d > 0:
-                gap2 += np.maximum((k + 1) * size + pad - c, 0.0) ** 2
+                gap2 += np.maximum((k + 1) * size - pad - c, 0.0) ** 2
             elif d < 0:
-                gap2 += np.maximum(c - k * size + pad, 0.0) ** 2
-        i = i[gap2 < reach * reach]
-        c = nb[scol[i]]
+                gap2 += np.maximum(c - k * size - pad, 0.0) ** 2
+        near = gap2 < reach * reach
+        i = i[near]
+        # a partner that far across lies within sqrt(r^2 - gap^2) along the sweep axis
+        half = np.sqrt(reach * reach - gap2[near]) + pad
+        c = nb[own[near]]
         at = c * stride + (cols[ax][i] - base[c])
         rows.append(i)
-        lo.append(np.searchsorted(sk, at - reach, side="left"))
-        hi.append(np.searchsorted(sk, at + reach, side="right"))
+        lo.append(np.searchsorted(sk, at - half, side="left"))
+        hi.append(np.searchsorted(sk, at + half, side="right"))
     rows, lo = np.concatenate(rows), np.concatenate(lo)
     count = np.concatenate(hi) - lo
-    longest = np.argsort(-count, kind="stable")
+    # longest first; windows hold a few dozen cells at most (cells are >= ~cs apart), so the
+    # short integer sort is a radix sort
+    short = np.int16 if len(count) == 0 or count.max() < 2 ** 15 else np.int64
+    longest = np.argsort((count.max(initial=0) - count).astype(short), kind="stable")
     longest = longest[count[longest] > 0]
     rows, lo, count = rows[longest], lo[longest], count[longest]
     open_at = np.searchsorted(-count, -np.arange(1, count[0] + 1 if len(count) else 1), side="right")
@@ -362,7 +393,8 @@ def _column_sweep(points: np.ndarray, radius: float, index: BoxIndex) -> np.ndar
         ka = index.keys[index.cell_box, ax]
         ok = np.abs(ka[ci] - ka[cj]) <= 1
         ci, cj = ci[ok], cj[ok]
-    return canonical_links(np.column_stack([ci, cj]))
+    # each pair was met once and never with itself: sorting the keys is canonical_links
+    return _rows(np.sort(np.minimum(ci, cj) * n + np.maximum(ci, cj)), n)
 
 
 def canonical_links(pairs: np.ndarray) -> np.ndarray:
@@ -372,12 +404,14 @@ def canonical_links(pairs: np.ndarray) -> np.ndarray:
     if len(p) == 0 or not np.any(lo != hi):
         return np.zeros((0, 2), np.int64)
     n = int(hi.max()) + 1
-    key = lo * n + hi                            # one int64 per pair: sorts as (i, j)
-    key = np.sort(key[lo != hi])
-    key = key[np.concatenate([[True], key[1:] != key[:-1]])]
+    key = np.sort(lo[lo != hi] * n + hi[lo != hi])      # one int64 per pair: sorts as (i, j)
+    return _rows(key[np.concatenate([[True], key[1:] != key[:-1]])], n)
+
+
+def _rows(key: np.ndarray, n: int) -> np.ndarray:
+    """(m, 2) rows (key // n, key % n) of sorted pair keys i * n + j."""
     out = np.empty((len(key), 2), np.int64)
-    np.floor_divide(key, n, out=out[:, 0])
-    np.subtract(key, out[:, 0] * n, out=out[:, 1])
+    np.divmod(key, n, out=(out[:, 0], out[:, 1]))
     return out
 
 
