@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from procgen_cellnet.orientation import loop_normal, orient_polygons, shared_runs, wound
+from procgen_cellnet.orientation import collinear_runs, loop_normal, orient_polygons, shared_runs, wound
 
 
 def _wound(polys):
@@ -73,22 +73,9 @@ def test_a_big_triangle_soup_far_from_the_origin_faces_out_everywhere():
 
 
 def _all_pairs(a, b, owner, tol):
-    """The shared runs by testing every pair of edges (the quadratic reference)."""
+    """The shared runs by the exact test of every pair of edges (the quadratic reference)."""
     i, j = np.triu_indices(len(a), 1)
-    keep = owner[i] != owner[j]
-    i, j = i[keep], j[keep]
-    u = (b - a) / np.linalg.norm(b - a, axis=1)[:, None]
-    for end in (a, b):
-        off = end[j] - a[i]
-        perp = off - np.einsum("ij,ij->i", off, u[i])[:, None] * u[i]
-        ok = np.einsum("ij,ij->i", perp, perp) < tol * tol
-        i, j = i[ok], j[ok]
-    s0 = np.einsum("ij,ij->i", a[j] - a[i], u[i])
-    s1 = np.einsum("ij,ij->i", b[j] - a[i], u[i])
-    length = np.linalg.norm(b - a, axis=1)
-    ok = np.minimum(np.maximum(s0, s1), length[i]) - np.maximum(np.minimum(s0, s1), 0.0) > tol
-    return {(int(p), int(q), bool(s)) for p, q, s in
-            zip(owner[i[ok]], owner[j[ok]], np.einsum("ij,ij->i", u[i[ok]], u[j[ok]]) > 0)}
+    return set(zip(*(x.tolist() for x in collinear_runs(a, b, owner, tol, i, j))))
 
 
 @pytest.mark.parametrize("shape", ["cube", "sphere"])

@@ -127,7 +127,15 @@ def shared_runs(a: np.ndarray, b: np.ndarray, owner: np.ndarray,
     s0 = np.einsum("ij,ij->i", a0, ref)
     s1 = np.einsum("ij,ij->i", b[live] - corner, ref)
     ci, cj = _overlapping(line, np.minimum(s0, s1), np.maximum(s0, s1))
-    i, j = live[np.minimum(ci, cj)], live[np.maximum(ci, cj)]
+    return collinear_runs(a, b, owner, tol, live[np.minimum(ci, cj)], live[np.maximum(ci, cj)])
+
+
+def collinear_runs(a: np.ndarray, b: np.ndarray, owner: np.ndarray, tol: float,
+                   i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The exact test of candidate edge pairs i < j: :func:`shared_runs`' answer for them."""
+    d = b - a
+    length = np.linalg.norm(d, axis=1)
+    u = d / np.maximum(length, 1e-300)[:, None]
     keep = owner[i] != owner[j]
     i, j = i[keep], j[keep]
     # j's ends within tol of i's line, i.e. the two edges lie on one line
