@@ -15,6 +15,11 @@ sorted arrays are the paper's linked lists in another form.
 The 27-box search finds every partner within ``bs`` only.  The paper allows kb = 1, but every
 link radius r_i is larger than cs (section 4.3), so a partner can sit two boxes away: the
 linker refuses ``bs < r_i`` (:func:`check_stencil`).
+
+Without numba the search runs as a column sweep (:func:`_column_sweep`): the three boxes of a
+box column are one run sorted along the column, so a cell's partners in it are a
+``searchsorted`` window; it gives cKDTree's links at about cKDTree's speed
+(benchmarks/cellnet.py prints both).
 """
 from __future__ import annotations
 
@@ -379,8 +384,10 @@ def _column_sweep(points: np.ndarray, radius: float, index: BoxIndex) -> np.ndar
     short = np.int16 if len(count) == 0 or count.max() < 2 ** 15 else np.int64
     longest = np.argsort((count.max(initial=0) - count).astype(short), kind="stable")
     longest = longest[count[longest] > 0]
+    if len(longest) == 0:
+        return np.zeros((0, 2), np.int64)
     rows, lo, count = rows[longest], lo[longest], count[longest]
-    open_at = np.searchsorted(-count, -np.arange(1, count[0] + 1 if len(count) else 1), side="right")
+    open_at = np.searchsorted(-count, -np.arange(1, count[0] + 1), side="right")
     ci_cols = [c[rows] for c in cols]
     out_i, out_j = [], []
     for k, m in enumerate(open_at):     # the k-th cell of every window still open
