@@ -15,6 +15,11 @@ sorted arrays are the paper's linked lists in another form.
 The 27-box search finds every partner within ``bs`` only.  The paper allows kb = 1, but every
 link radius r_i is larger than cs (section 4.3), so a partner can sit two boxes away: the
 linker refuses ``bs < r_i`` (:func:`check_stencil`).
+
+Without numba the search runs as a column sweep (:func:`_column_sweep`): the three boxes of a
+box column are one run sorted along the column, so a cell's partners in it are a
+``searchsorted`` window; it gives cKDTree's links at about cKDTree's speed
+(benchmarks/cellnet.py prints both).
 """
 from __future__ import annotations
 
@@ -34,9 +39,6 @@ STENCIL = np.array([(0, 0, 0)] + [o for o in product((-1, 0, 1), repeat=3) if o 
 #: the 13 offsets after (0, 0, 0) in lexicographic order: each box pair is visited once
 HALF_STENCIL = STENCIL[1:][[tuple(o) > (0, 0, 0) for o in STENCIL[1:]]]
 
-#: candidate pairs examined per chunk when linking (bounds peak memory)
-CHUNK_PAIRS = 4_000_000
-
 
 def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sorted unique rows, first index of each, row of every input) of an integer array.
@@ -45,26 +47,35 @@ def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     lexsort): much faster than ``np.unique(axis=0)`` on millions of rows.
     """
     a = np.asarray(a)
+    order, first = _row_order(a)
+    inverse = np.empty(len(a), np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return a[order[first]], order[first], inverse
+
+
+def _row_order(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(stable order sorting the rows, whether each sorted row starts a run of equal rows)."""
     if len(a) == 0:
-        return a.reshape(0, a.shape[1]), np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return np.zeros(0, np.int64), np.zeros(0, bool)
     lo = a.min(axis=0)
     span = [int(s) for s in a.max(axis=0) - lo + 1]
+    first = np.ones(len(a), bool)
     if math.prod(span) < 2 ** 62:
         key = np.zeros(len(a), np.int64)
         for c, s in enumerate(span):
             key = key * s + (a[:, c] - lo[c])
-        order = np.argsort(key, kind="stable")
-        sk = key[order]
-        first = np.ones(len(a), bool)
+        if math.prod(span) * len(a) < 2 ** 62:
+            # row then position in one int64: a plain sort of the values is the stable order
+            sk, order = np.divmod(np.sort(key * len(a) + np.arange(len(a))), len(a))
+        else:
+            order = np.argsort(key, kind="stable")
+            sk = key[order]
         first[1:] = sk[1:] != sk[:-1]
     else:
         order = np.lexsort(a.T[::-1])
         sa = a[order]
-        first = np.ones(len(a), bool)
         first[1:] = np.any(sa[1:] != sa[:-1], axis=1)
-    inverse = np.empty(len(a), np.int64)
-    inverse[order] = np.cumsum(first) - 1
-    return a[order[first]], order[first], inverse
+    return order, first
 
 
 def box_keys(points: np.ndarray, size: float) -> np.ndarray:
@@ -100,14 +111,20 @@ class BoxIndex:
 
     @classmethod
     def from_keys(cls, cell_keys: np.ndarray, size: float) -> "BoxIndex":
-        keys, _, cell_box = unique_rows(cell_keys.reshape(-1, 3))
-        return cls.assemble(size, keys, cell_box)
+        a = cell_keys.reshape(-1, 3)
+        order, first = _row_order(a)            # the stable sort is also the cells' order
+        cell_box = np.empty(len(a), np.int64)
+        cell_box[order] = np.cumsum(first) - 1
+        return cls.assemble(size, a[order[first]], cell_box, order)
 
     @classmethod
-    def assemble(cls, size: float, keys: np.ndarray, cell_box: np.ndarray) -> "BoxIndex":
-        """Index from sorted box keys and every cell's box (cells ascending inside a box)."""
+    def assemble(cls, size: float, keys: np.ndarray, cell_box: np.ndarray,
+                 order: np.ndarray | None = None) -> "BoxIndex":
+        """Index from sorted box keys and every cell's box (cells ascending inside a box;
+        ``order``, if given, is already the cells sorted so)."""
         cell_box = np.asarray(cell_box, np.int64)
-        order = np.argsort(cell_box, kind="stable")
+        if order is None:
+            order = np.argsort(cell_box, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(cell_box, minlength=len(keys)))])
         return cls(float(size), np.asarray(keys, np.int64).reshape(-1, 3), start.astype(np.int64),
                    order.astype(np.int64), cell_box)
@@ -218,22 +235,6 @@ class BoxIndex:
         ids = self.lookup(self.keys[box] + STENCIL)
         return ids[ids >= 0]
 
-    def box_pairs(self) -> tuple[np.ndarray, np.ndarray]:
-        """Every pair (a, b) of existing boxes that touch, a itself included, each pair once."""
-        src = [np.arange(self.n_boxes)]
-        dst = [np.arange(self.n_boxes)]
-        packed = self._packed
-        for off in HALF_STENCIL:
-            if packed is not None:      # the margin keeps key + off inside the packed block
-                lo, span, keys = packed
-                nb = _find(keys, keys + int((off[0] * span[1] + off[1]) * span[2] + off[2]))
-            else:
-                nb = self._walk(self.keys + off)
-            ok = nb >= 0
-            src.append(np.nonzero(ok)[0])
-            dst.append(nb[ok])
-        return np.concatenate(src), np.concatenate(dst)
-
     def dump(self) -> str:
         """The x -> y -> z lists as text (Figure 4): one line per x node."""
         lines = []
@@ -258,16 +259,25 @@ def check_stencil(radius: float, size: float, cs: float, where: str = "cellnet.l
 def _near(points: np.ndarray, i: np.ndarray, j: np.ndarray, radius: float) -> np.ndarray:
     """``|p_i - p_j| < radius`` for each pair, one expression shared by every linker.
 
-    ``points`` is (n, 3) or its three coordinate columns; dx^2 + dy^2 + dz^2 in that order and
-    one comparison against radius^2, so the box search, cKDTree and brute force agree bit for
-    bit on pairs at exactly the radius.
+    ``points`` is (n, 3) or its three coordinate columns; see :func:`_within`.
     """
     cols = points if isinstance(points, tuple) else tuple(np.ascontiguousarray(points[:, k])
                                                           for k in range(3))
-    d2 = np.zeros(len(i))
-    for c in cols:
-        d = c[i] - c[j]
-        d2 += d * d
+    return _within([c[i] for c in cols], [c[j] for c in cols], radius)
+
+
+def _within(pi: list[np.ndarray], pj: list[np.ndarray], radius: float) -> np.ndarray:
+    """``|p_i - p_j| < radius`` from the coordinate columns of both ends: dx^2 + dy^2 + dz^2 in
+    that order and one comparison against radius^2, so the box search, cKDTree and brute force
+    agree bit for bit on pairs at exactly the radius."""
+    d2 = None
+    for a, b in zip(pi, pj):
+        d = a - b
+        d *= d
+        if d2 is None:
+            d2 = d                      # 0 + dx^2 is dx^2 exactly
+        else:
+            d2 += d
     return d2 < radius * radius
 
 
@@ -275,62 +285,123 @@ def pairs_within(points: np.ndarray, radius: float, index: BoxIndex,
                  guard: bool = True, accelerate: bool | None = None) -> np.ndarray:
     """All cell pairs (i < j) closer than ``radius``, from the 27-box search of ``index``.
 
-    Cells are taken box after box (the index's order), so a box's cells are one contiguous
-    run and the partners of a cell in a touching box are one run too: every candidate pair is
-    made by two flat expansions (box pair -> cell of the first box -> run of the second) with
-    no division, and the coordinates it reads are close in memory.  A cell farther than
-    ``radius`` from the cube of a touching box skips that box's run; inside one box only the
-    cells after a cell are taken, so every pair is met once.  ``guard=False`` runs the stencil
-    even when boxes are smaller than the radius, which shows the links kb = 1 loses (paper
-    section 4, the stencil flaw).  ``accelerate`` selects the compiled walk of the same boxes
-    (``boxes_kernels``; same links, tested), by default from ``MIN_CELLS``
-    cells when numba is installed (:func:`procgen.accel.kernels`).
+    ``guard=False`` runs the stencil even when boxes are smaller than the radius, which shows
+    the links kb = 1 loses (paper section 4, the stencil flaw).  ``accelerate`` selects the
+    compiled walk of the same boxes (``boxes_kernels``; same links, tested), by default from
+    ``MIN_CELLS`` cells when numba is installed (:func:`procgen.accel.kernels`); else
+    :func:`_column_sweep` searches the same 27 boxes with numpy.
     """
     if guard and index.size < radius:
         raise InputError(f"box search: box side {index.size:g} < link radius {radius:g} "
                          "would miss links")
-    order, start, cnt, size = index.order, index.start, index.counts, index.size
-    cols = tuple(np.ascontiguousarray(np.asarray(points, float)[order, k]) for k in range(3))
+    order, start = index.order, index.start
     packed = index._packed
     kern = kernels("procgen_cellnet.boxes_kernels", accelerate, len(order), MIN_CELLS)
     if kern is not None and packed is not None:
         lo, span, keys = packed
         offsets = np.array([(o[0] * span[1] + o[1]) * span[2] + o[2] for o in HALF_STENCIL], np.int64)
+        cols = tuple(np.ascontiguousarray(np.asarray(points, float)[order, k]) for k in range(3))
         return kern.pairs_within(keys, offsets, start, order, cols, radius)
-    # a cell sits in its box's cube up to rounding of floor(p / bs) far from the origin
-    pad = 1e-9 * size + 16 * float(np.spacing(max((np.abs(c).max() for c in cols), default=0.0)))
-    src, dst = index.box_pairs()
-    work = cnt[src] * cnt[dst]
-    bounds = np.searchsorted(np.cumsum(work), np.arange(CHUNK_PAIRS, work.sum() + CHUNK_PAIRS,
-                                                        CHUNK_PAIRS), side="right")
-    out = []
-    lo = 0
-    for hi in list(bounds) + [len(src)]:
-        if hi <= lo:
-            continue
-        a, b = src[lo:hi], dst[lo:hi]
-        # level 1: every cell i of box a (sorted position) with the run of partners in box b
-        na = cnt[a]
-        i = np.repeat(start[a] - (np.cumsum(na) - na), na) + np.arange(na.sum())
-        same = np.repeat(a == b, na)
-        bb = np.repeat(b, na)
+    return _column_sweep(np.asarray(points, float), radius, index)
+
+
+#: the (o1, o2) offsets of the four neighbour columns after a column: each column pair once
+FORWARD_COLUMNS = np.array([(0, 1, 0), (1, -1, 0), (1, 0, 0), (1, 1, 0)], np.int64)
+
+
+def _column_sweep(points: np.ndarray, radius: float, index: BoxIndex) -> np.ndarray:
+    """The 27-box search as sorted runs: the links of :func:`pairs_within` with numpy only.
+
+    The three boxes of a cell's box column along one axis (the scene's longest, the sweep
+    axis) are one run once the column's cells are sorted by that coordinate (floor(s / bs) is
+    monotone in s), and the partners of a cell in it lie in the window |s_j - s_i| < r of that
+    run: two ``searchsorted``.  So every cell is matched against its own column's cells ahead
+    of it within r and against the window of each of the four forward neighbour columns it
+    comes within r of - the 27 boxes, each pair once, cut to a slab 2r thick along the sweep
+    axis instead of 3 boxes.  The sort key is (column rank * stride + s - column start) in
+    float; windows are padded by its rounding, so they only ever hold more candidates, and the
+    exact test is ``_within``.  Boxes smaller than the radius (``guard=False``) keep only
+    partners at most one box away along the sweep axis too, which is what the 27 boxes hold.
+
+    No candidate list is built: the windows are walked k-th cell after k-th cell, all windows
+    at once, longest windows first (so the windows still open are a prefix), which bounds the
+    memory by the number of windows (at most five per cell).
+    """
+    size = index.size
+    n = len(points)
+    if n == 0:
+        return np.zeros((0, 2), np.int64)
+    bk = index.keys
+    ax = int(np.argmax(np.ptp(bk, axis=0)))
+    o1, o2 = [k for k in range(3) if k != ax]
+    columns = BoxIndex.from_keys(np.column_stack([bk[:, o1], bk[:, o2], np.zeros(len(bk), np.int64)]),
+                                 size)
+    first = np.minimum.reduceat(bk[columns.order, ax], columns.start[:-1])
+    last = np.maximum.reduceat(bk[columns.order, ax], columns.start[:-1])
+    stride = float(np.max(last - first) + 1) * size + 4 * radius
+    base = first * size                                 # each column's lowest box face
+    col = columns.cell_box[index.cell_box]
+    s = points[:, ax]
+    key = col * stride + (s - base[col])
+    order = np.argsort(key)             # ties in any order: windows go by value
+    sk = key[order]
+    cols = tuple(np.ascontiguousarray(points[order, k]) for k in range(3))
+    pad = 1e-9 * size + 16 * float(np.spacing(max(np.abs(sk).max(), np.abs(s).max(), stride)))
+    reach = radius + pad
+    # own column: the cells after i in sort order up to s_i + r
+    rows, lo = [np.arange(n)], [np.arange(1, n + 1)]
+    hi = [np.searchsorted(sk, sk + reach, side="right")]
+    # forward neighbour columns the cell comes within r of (its box's padded cross-section);
+    # a column's cells are one run of the sort order
+    per_col = np.bincount(col, minlength=columns.n_boxes)
+    col_first = np.cumsum(per_col) - per_col
+    for off in FORWARD_COLUMNS:
+        nb = columns.lookup(columns.keys + off)
+        have = np.nonzero(nb >= 0)[0]
+        cnt = per_col[have]
+        i = np.repeat(col_first[have] - (np.cumsum(cnt) - cnt), cnt) + np.arange(cnt.sum())
+        own = np.repeat(have, cnt)
         gap2 = np.zeros(len(i))
-        for k in range(3):          # squared distance from the cell to box b's padded cube
-            low = index.keys[bb, k] * size - pad
-            g = np.maximum(np.maximum(low - cols[k][i], cols[k][i] - (low + size + 2 * pad)), 0.0)
-            gap2 += g * g
-        reach = same | (gap2 < radius * radius)
-        i, same, bb = i[reach], same[reach], bb[reach]
-        j0 = np.where(same, i + 1, start[bb])
-        nj = np.where(same, start[bb + 1] - i - 1, cnt[bb])
-        # level 2: every (i, j) of those runs
-        ci = np.repeat(i, nj)
-        cj = np.repeat(j0 - (np.cumsum(nj) - nj), nj) + np.arange(nj.sum())
-        near = _near(cols, ci, cj, radius)
-        ci, cj = order[ci[near]], order[cj[near]]
-        out.append(np.column_stack([np.minimum(ci, cj), np.maximum(ci, cj)]))
-        lo = hi
-    return canonical_links(np.concatenate(out) if out else np.zeros((0, 2), np.int64))
+        for d, c, k in ((off[0], cols[o1][i], columns.keys[own, 0]),
+                        (off[1], cols[o2][i], columns.keys[own, 1])):
+            if d > 0:
+                gap2 += np.maximum((k + 1) * size - pad - c, 0.0) ** 2
+            elif d < 0:
+                gap2 += np.maximum(c - k * size - pad, 0.0) ** 2
+        near = gap2 < reach * reach
+        i = i[near]
+        # a partner that far across lies within sqrt(r^2 - gap^2) along the sweep axis
+        half = np.sqrt(reach * reach - gap2[near]) + pad
+        c = nb[own[near]]
+        at = c * stride + (cols[ax][i] - base[c])
+        rows.append(i)
+        lo.append(np.searchsorted(sk, at - half, side="left"))
+        hi.append(np.searchsorted(sk, at + half, side="right"))
+    rows, lo = np.concatenate(rows), np.concatenate(lo)
+    count = np.concatenate(hi) - lo
+    # longest first; windows hold a few dozen cells at most (cells are >= ~cs apart), so the
+    # short integer sort is a radix sort
+    short = np.int16 if len(count) == 0 or count.max() < 2 ** 15 else np.int64
+    longest = np.argsort((count.max(initial=0) - count).astype(short), kind="stable")
+    longest = longest[count[longest] > 0]
+    if len(longest) == 0:
+        return np.zeros((0, 2), np.int64)
+    rows, lo, count = rows[longest], lo[longest], count[longest]
+    open_at = np.searchsorted(-count, -np.arange(1, count[0] + 1), side="right")
+    ci_cols = [c[rows] for c in cols]
+    out_i, out_j = [], []
+    for k, m in enumerate(open_at):     # the k-th cell of every window still open
+        j = lo[:m] + k
+        hit = np.nonzero(_within([c[:m] for c in ci_cols], [c[j] for c in cols], radius))[0]
+        out_i.append(rows[hit])
+        out_j.append(j[hit])
+    ci, cj = order[np.concatenate(out_i)], order[np.concatenate(out_j)]
+    if size < radius:                   # the stencil's reach along the sweep axis: one box
+        ka = index.keys[index.cell_box, ax]
+        ok = np.abs(ka[ci] - ka[cj]) <= 1
+        ci, cj = ci[ok], cj[ok]
+    # each pair was met once and never with itself: sorting the keys is canonical_links
+    return _rows(np.sort(np.minimum(ci, cj) * n + np.maximum(ci, cj)), n)
 
 
 def canonical_links(pairs: np.ndarray) -> np.ndarray:
@@ -340,12 +411,14 @@ def canonical_links(pairs: np.ndarray) -> np.ndarray:
     if len(p) == 0 or not np.any(lo != hi):
         return np.zeros((0, 2), np.int64)
     n = int(hi.max()) + 1
-    key = lo * n + hi                            # one int64 per pair: sorts as (i, j)
-    key = np.sort(key[lo != hi])
-    key = key[np.concatenate([[True], key[1:] != key[:-1]])]
+    key = np.sort(lo[lo != hi] * n + hi[lo != hi])      # one int64 per pair: sorts as (i, j)
+    return _rows(key[np.concatenate([[True], key[1:] != key[:-1]])], n)
+
+
+def _rows(key: np.ndarray, n: int) -> np.ndarray:
+    """(m, 2) rows (key // n, key % n) of sorted pair keys i * n + j."""
     out = np.empty((len(key), 2), np.int64)
-    np.floor_divide(key, n, out=out[:, 0])
-    np.subtract(key, out[:, 0] * n, out=out[:, 1])
+    np.divmod(key, n, out=(out[:, 0], out[:, 1]))
     return out
 
 
