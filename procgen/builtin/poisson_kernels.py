@@ -1,0 +1,189 @@
+"""Compiled rounds of the maximal Poisson-disk sampler (procgen.builtin.poisson), for numba.
+
+Why a second formulation: the numpy path keeps, per open sub-cell, the list of sample disks
+touching it (flat pairs) because whole-array code cannot afford to look around each sub-cell;
+building, filtering and splitting those pairs cost more than the dart throwing itself. A
+compiled loop can simply read the background grid: a sub-cell is closed exactly when its cell
+holds a sample or one sample of the 5x5 block around its cell contains it (Ebeida et al. 2011,
+section 3: a sub-cell is covered by a single disk), which is the set the pairs describe, so
+both paths keep the same open sub-cells in the same order and draw the same random numbers.
+Every float expression below is the numpy path's (``_Grid.bounds``, ``_touches``,
+``_contains``, ``_darts``), evaluated in the same order, so the samples are bit-identical
+(tests/test_poisson.py checks it). Random numbers stay with numpy's Generator (drawn by the
+caller into preallocated buffers); these loops only consume them.
+
+Importing this module needs numba (the ``fast`` extra); ``poisson._numba_kernels`` imports it
+only when numba is installed. Kernels are cached on disk by numba (compiled once per install).
+"""
+from __future__ import annotations
+
+import numba
+
+jit = numba.njit(cache=True, nogil=True)
+
+PAD = 2
+"""Grid padding in cells (``poisson._PAD``): the 5x5 block of any cell stays inside the grid."""
+
+
+@jit
+def count_darts(i, j, n, u, cdf, h, x0, y0, x1, y1, lam, full, count, clip, mean):
+    """Darts per open sub-cell: inverse-CDF Poisson of ``u`` (numpy's searchsorted, right side);
+    for sub-cells clipped by the domain, their index and Poisson mean go to ``clip``/``mean``
+    (the caller draws those with ``rng.poisson``). Returns the number of clipped sub-cells."""
+    nclip = 0
+    for k in range(n):
+        c = 0
+        while c < cdf.size and cdf[c] <= u[k]:
+            c += 1
+        count[k] = c
+        lox = x0 + j[k] * h
+        loy = y0 + i[k] * h
+        hix = min(x0 + (j[k] + 1) * h, x1)
+        hiy = min(y0 + (i[k] + 1) * h, y1)
+        if hix >= x1 or hiy >= y1:
+            clip[nclip] = k
+            mean[nclip] = lam * ((hix - lox) * (hiy - loy) / full)
+            nclip += 1
+    return nclip
+
+
+@jit
+def throw(i, j, n, level, count, u, perm, ndart, h, x0, y0, x1, y1, xmax, ymax, stride,
+          px, py, nbr, r2, dx, dy, dcell, order, out, nout, room):
+    """One round of darts: place ``count[k]`` darts uniformly in each open sub-cell k (uniforms
+    ``u``: all x first, then all y), throw them one at a time in decreasing priority ``perm``
+    against the grid (a dart dies within r of a sample or in a taken cell), write the first
+    ``room`` accepted ones to ``out[nout:]``. Returns the number accepted."""
+    d = 0
+    for k in range(n):
+        lox = x0 + j[k] * h
+        loy = y0 + i[k] * h
+        wx = min(x0 + (j[k] + 1) * h, x1) - lox
+        wy = min(y0 + (i[k] + 1) * h, y1) - loy
+        c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
+        for _ in range(count[k]):
+            dx[d] = min(lox + u[d] * wx, xmax)
+            dy[d] = min(loy + u[ndart + d] * wy, ymax)
+            dcell[d] = c
+            d += 1
+    for d in range(ndart):
+        order[ndart - 1 - perm[d]] = d
+    won = 0
+    for t in range(ndart):
+        d = order[t]
+        c = dcell[d]
+        if px[c] == px[c]:  # cell already holds a sample
+            continue
+        x = dx[d]
+        y = dy[d]
+        ok = True
+        for m in range(nbr.size):
+            sx = px[c + nbr[m]]
+            if sx == sx:
+                ex = sx - x
+                ey = py[c + nbr[m]] - y
+                if ex * ex + ey * ey < r2:
+                    ok = False
+                    break
+        if ok:
+            px[c] = x
+            py[c] = y
+            if won < room:
+                out[nout + won, 0] = x
+                out[nout + won, 1] = y
+            won += 1
+    return won
+
+
+@jit
+def _covered(c, lox, hix, loy, hiy, px, py, nbr, touch2, r2):
+    """True when one sample of the 5x5 block around cell c contains the rectangle (its disk
+    touches it and reaches its farthest corner: ``_touches`` and ``_contains``)."""
+    for m in range(nbr.size):
+        sx = px[c + nbr[m]]
+        if sx == sx:
+            sy = py[c + nbr[m]]
+            ax = max(max(lox - sx, sx - hix), 0.0)
+            ay = max(max(loy - sy, sy - hiy), 0.0)
+            if ax * ax + ay * ay < touch2:
+                fx = max(sx - lox, hix - sx)
+                fy = max(sy - loy, hiy - sy)
+                if fx * fx + fy * fy <= r2:
+                    return True
+    return False
+
+
+@jit
+def close(i, j, n, level, h, x0, y0, x1, y1, stride, px, py, nbr, touch2, r2):
+    """Drop, in place and in order, the open sub-cells whose cell is taken or which one disk
+    contains. Returns how many stay open."""
+    m = 0
+    for k in range(n):
+        c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
+        if px[c] == px[c]:
+            continue
+        lox = x0 + j[k] * h
+        loy = y0 + i[k] * h
+        hix = min(x0 + (j[k] + 1) * h, x1)
+        hiy = min(y0 + (i[k] + 1) * h, y1)
+        if not _covered(c, lox, hix, loy, hiy, px, py, nbr, touch2, r2):
+            i[m] = i[k]
+            j[m] = j[k]
+            m += 1
+    return m
+
+
+@jit
+def split(i, j, n, level, hc, x0, y0, x1, y1, stride, px, py, nbr, touch2, r2, ci, cj):
+    """Children (level + 1, quadrant order 2 * upper + right) of the n open sub-cells that lie in
+    the domain and that no disk contains, written in order to ``ci``/``cj`` while they fit.
+    Returns how many there are (more than ``ci.size``: the caller grows the buffers, calls again)."""
+    m = 0
+    cap = ci.size
+    for k in range(n):
+        c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
+        mx = x0 + (2 * j[k] + 1) * hc
+        my = y0 + (2 * i[k] + 1) * hc
+        for q in range(4):
+            qy = q >> 1
+            qx = q & 1
+            if (qy and not my < y1) or (qx and not mx < x1):
+                continue
+            ii = 2 * i[k] + qy
+            jj = 2 * j[k] + qx
+            lox = x0 + jj * hc
+            loy = y0 + ii * hc
+            hix = min(x0 + (jj + 1) * hc, x1)
+            hiy = min(y0 + (ii + 1) * hc, y1)
+            if not _covered(c, lox, hix, loy, hiy, px, py, nbr, touch2, r2):
+                if m < cap:
+                    ci[m] = ii
+                    cj[m] = jj
+                m += 1
+    return m
+
+
+@jit
+def grid_insert(x, y, x0, y0, side, stride, px, py, nbr, r2):
+    """The benchmark's limit: throw darts at the grid in the given order (cell look-up, taken
+    test, 24-neighbour distance test, store): the least work a dart needs. Returns accepted."""
+    won = 0
+    for d in range(x.size):
+        c = (int((y[d] - y0) / side) + PAD) * stride + int((x[d] - x0) / side) + PAD
+        if px[c] == px[c]:
+            continue
+        ok = True
+        for m in range(nbr.size):
+            sx = px[c + nbr[m]]
+            if sx == sx:
+                ex = sx - x[d]
+                ey = py[c + nbr[m]] - y[d]
+                if ex * ex + ey * ey < r2:
+                    ok = False
+                    break
+        if ok:
+            px[c] = x[d]
+            py[c] = y[d]
+            won += 1
+    return won
+
