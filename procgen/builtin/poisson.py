@@ -90,6 +90,7 @@ class _Grid:
     px: np.ndarray = field(init=False)
     py: np.ndarray = field(init=False)
     nbr: np.ndarray = field(init=False)
+    near_first: np.ndarray = field(init=False)
     half: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
@@ -101,6 +102,8 @@ class _Grid:
         di, dj = np.meshgrid(d, d, indexing="ij")
         off = (di * self.stride + dj).ravel()
         self.nbr = off[off != 0]  # 24 neighbours; the own cell is handled separately
+        gap = (np.maximum(np.abs(di) - 1, 0) ** 2 + np.maximum(np.abs(dj) - 1, 0) ** 2).ravel()[off != 0]
+        self.near_first = self.nbr[np.argsort(gap, kind="stable")]  # likeliest conflicts first
         self.half = off[off >= 0]  # own cell and the 12 "later" neighbours: each cell pair once
 
     def cell_of(self, i: np.ndarray, j: np.ndarray, level: int) -> np.ndarray:
@@ -519,9 +522,11 @@ def _rounds_numpy(g: _Grid, o: _Open, rng: np.random.Generator, limit: float, st
 class _Scratch:
     """Buffers of the compiled rounds, allocated once and grown (rarely) by doubling: per open
     sub-cell (i, j, children, dart counts, uniforms, clipped ones) and per dart (uniforms,
-    priorities, position, cell, throwing order)."""
+    priorities, position, cell, cells of the accepted ones) and grid-sized cell -> sub-cell index."""
 
-    def __init__(self, subcells: int, darts: int):
+    def __init__(self, g: _Grid, subcells: int, darts: int):
+        self.grid = np.column_stack((g.px, g.py))  # one cache line holds a sample's x and y
+        self.first = np.full(g.px.size, -1, dtype=np.int64)  # cell -> first open sub-cell, see close
         self.sub_cap = self.dart_cap = 0
         self.grow_subcells(subcells)
         self.grow_darts(darts)
@@ -533,6 +538,7 @@ class _Scratch:
         old = (self.i[:keep], self.j[:keep]) if keep else None
         self.i, self.j, self.ci, self.cj, self.count, self.clip = (np.empty(cap, np.int64) for _ in range(6))
         self.u, self.mean = np.empty(cap), np.empty(cap)
+        self.shut = np.empty(cap, dtype=bool)
         if old:
             self.i[:keep], self.j[:keep] = old
         self.sub_cap = cap
@@ -541,9 +547,9 @@ class _Scratch:
         if n <= self.dart_cap:
             return
         cap = max(n, 2 * self.dart_cap)
-        self.ud, self.x, self.y = np.empty(2 * cap), np.empty(cap), np.empty(cap)
+        self.ud, self.dart = np.empty(2 * cap), np.empty((cap, 3))  # dart: x, y, cell
         self.iota = np.arange(cap)
-        self.perm, self.cell, self.order = (np.empty(cap, np.int64) for _ in range(3))
+        self.perm, self.wcell = np.empty(cap, np.int64), np.empty(cap, np.int64)
         self.dart_cap = cap
 
 
@@ -553,7 +559,7 @@ def _rounds_compiled(g: _Grid, o: _Open | None, rng: np.random.Generator, kern, 
     procgen.builtin.poisson_kernels): same random draws, same open sub-cells, same samples.
     Python only draws the random numbers (into preallocated buffers) and sequences the rounds."""
     cells = g.nx * g.ny
-    b = _Scratch(cells, int(cells * _FIRST_DARTS_PER_CELL * 1.25) + 64)
+    b = _Scratch(g, cells, int(cells * _FIRST_DARTS_PER_CELL * 1.25) + 64)
     if o is None:
         n = cells
         b.i[:n], b.j[:n] = np.divmod(np.arange(n, dtype=np.int64), g.nx)
@@ -578,12 +584,13 @@ def _rounds_compiled(g: _Grid, o: _Open | None, rng: np.random.Generator, kern, 
         rng.shuffle(perm)  # rng.permutation(darts), in place
         room = int(min(limit - n_out, cells - n_out))
         won = kern.throw(b.i, b.j, n, level, b.count, b.ud, b.perm, darts, h, *geom, xmax, ymax, g.stride,
-                         g.px, g.py, g.nbr, g.r2, b.x, b.y, b.cell, b.order, out, n_out, room)
+                         b.grid, g.near_first, g.r2, b.dart, out, n_out, room, b.wcell)
         n_out += min(won, room)
         stats["rounds"] += 1
         stats["darts"] += darts
         stats["trace"].append((level, n, darts, won))
-        n = kern.close(b.i, b.j, n, level, h, *geom, g.stride, g.px, g.py, g.nbr, g.touch2, g.r2)
+        n = kern.close(b.i, b.j, n, level, h, *geom, g.stride, b.grid, g.near_first, g.touch2, g.r2,
+                       b.wcell, won, b.first, b.shut)
         if not n:
             break
         if _at_floor(g, level, coord_ulp):
@@ -592,7 +599,7 @@ def _rounds_compiled(g: _Grid, o: _Open | None, rng: np.random.Generator, kern, 
                 stats["leftover_subcells"] = n
                 break
         elif won / max(darts, 1) < _SPLIT_BELOW:
-            args = (n, level, math.ldexp(g.side, -level - 1), *geom, g.stride, g.px, g.py, g.nbr, g.touch2, g.r2)
+            args = (n, level, math.ldexp(g.side, -level - 1), *geom, g.stride, b.grid, g.near_first, g.touch2, g.r2)
             m = kern.split(b.i, b.j, *args, b.ci, b.cj)
             if m > b.sub_cap:
                 b.grow_subcells(m, keep=n)

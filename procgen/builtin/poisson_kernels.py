@@ -18,6 +18,7 @@ only when numba is installed. Kernels are cached on disk by numba (compiled once
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 jit = numba.njit(cache=True, nogil=True)
 
@@ -49,11 +50,15 @@ def count_darts(i, j, n, u, cdf, h, x0, y0, x1, y1, lam, full, count, clip, mean
 
 @jit
 def throw(i, j, n, level, count, u, perm, ndart, h, x0, y0, x1, y1, xmax, ymax, stride,
-          px, py, nbr, r2, dx, dy, dcell, order, out, nout, room):
+          p, nbr, r2, dart, out, nout, room, wcell):
     """One round of darts: place ``count[k]`` darts uniformly in each open sub-cell k (uniforms
     ``u``: all x first, then all y), throw them one at a time in decreasing priority ``perm``
     against the grid (a dart dies within r of a sample or in a taken cell), write the first
-    ``room`` accepted ones to ``out[nout:]``. Returns the number accepted."""
+    ``room`` accepted ones to ``out[nout:]`` and the cells of all of them to ``wcell``.
+    Returns the number accepted.
+
+    Darts are stored at their rank (highest priority first): scattered writes while placing
+    them, then one sequential pass, instead of a random read per dart while throwing."""
     d = 0
     for k in range(n):
         lox = x0 + j[k] * h
@@ -62,71 +67,89 @@ def throw(i, j, n, level, count, u, perm, ndart, h, x0, y0, x1, y1, xmax, ymax, 
         wy = min(y0 + (i[k] + 1) * h, y1) - loy
         c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
         for _ in range(count[k]):
-            dx[d] = min(lox + u[d] * wx, xmax)
-            dy[d] = min(loy + u[ndart + d] * wy, ymax)
-            dcell[d] = c
+            t = ndart - 1 - perm[d]
+            dart[t, 0] = min(lox + u[d] * wx, xmax)
+            dart[t, 1] = min(loy + u[ndart + d] * wy, ymax)
+            dart[t, 2] = c
             d += 1
-    for d in range(ndart):
-        order[ndart - 1 - perm[d]] = d
     won = 0
     for t in range(ndart):
-        d = order[t]
-        c = dcell[d]
-        if px[c] == px[c]:  # cell already holds a sample
+        c = int(dart[t, 2])
+        if p[c, 0] == p[c, 0]:  # cell already holds a sample
             continue
-        x = dx[d]
-        y = dy[d]
+        x = dart[t, 0]
+        y = dart[t, 1]
         ok = True
         for m in range(nbr.size):
-            sx = px[c + nbr[m]]
+            sx = p[c + nbr[m], 0]
             if sx == sx:
                 ex = sx - x
-                ey = py[c + nbr[m]] - y
+                ey = p[c + nbr[m], 1] - y
                 if ex * ex + ey * ey < r2:
                     ok = False
                     break
         if ok:
-            px[c] = x
-            py[c] = y
+            p[c, 0] = x
+            p[c, 1] = y
             if won < room:
                 out[nout + won, 0] = x
                 out[nout + won, 1] = y
+            wcell[won] = c
             won += 1
     return won
 
 
 @jit
-def _covered(c, lox, hix, loy, hiy, px, py, nbr, touch2, r2):
-    """True when one sample of the 5x5 block around cell c contains the rectangle (its disk
-    touches it and reaches its farthest corner: ``_touches`` and ``_contains``)."""
-    for m in range(nbr.size):
-        sx = px[c + nbr[m]]
-        if sx == sx:
-            sy = py[c + nbr[m]]
-            ax = max(max(lox - sx, sx - hix), 0.0)
-            ay = max(max(loy - sy, sy - hiy), 0.0)
-            if ax * ax + ay * ay < touch2:
-                fx = max(sx - lox, hix - sx)
-                fy = max(sy - loy, hiy - sy)
-                if fx * fx + fy * fy <= r2:
-                    return True
+def _contains(sx, sy, lox, hix, loy, hiy, touch2, r2):
+    """The disk around (sx, sy) touches the rectangle and reaches its farthest corner: the
+    numpy path's ``_touches`` and ``_contains`` in the same float operations."""
+    ax = max(max(lox - sx, sx - hix), 0.0)
+    ay = max(max(loy - sy, sy - hiy), 0.0)
+    if ax * ax + ay * ay < touch2:
+        fx = max(sx - lox, hix - sx)
+        fy = max(sy - loy, hiy - sy)
+        return fx * fx + fy * fy <= r2
     return False
 
 
 @jit
-def close(i, j, n, level, h, x0, y0, x1, y1, stride, px, py, nbr, touch2, r2):
-    """Drop, in place and in order, the open sub-cells whose cell is taken or which one disk
-    contains. Returns how many stay open."""
-    m = 0
+def close(i, j, n, level, h, x0, y0, x1, y1, stride, p, nbr, touch2, r2, wcell, nwon, first, shut):
+    """Drop, in place and in order, the open sub-cells whose cell a new sample took or which
+    one new disk contains (older samples closed theirs already). Sub-cells are sorted by cell:
+    ``first`` (grid-sized, all -1 between calls) maps a cell to its first open sub-cell, and
+    each new sample visits only the open sub-cells of its 5x5 block. Returns how many stay open."""
     for k in range(n):
         c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
-        if px[c] == px[c]:
-            continue
-        lox = x0 + j[k] * h
-        loy = y0 + i[k] * h
-        hix = min(x0 + (j[k] + 1) * h, x1)
-        hiy = min(y0 + (i[k] + 1) * h, y1)
-        if not _covered(c, lox, hix, loy, hiy, px, py, nbr, touch2, r2):
+        if first[c] < 0:
+            first[c] = k
+        shut[k] = False
+    wcell[:nwon].sort()  # visit the new samples in cell order: neighbouring look-ups stay cached
+    for w in range(nwon):
+        cw = wcell[w]
+        k = first[cw]
+        while k >= 0 and k < n and ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD == cw:
+            shut[k] = True
+            k += 1
+        sx = p[cw, 0]
+        sy = p[cw, 1]
+        for m in range(nbr.size):
+            c = cw + nbr[m]
+            k = first[c]
+            if k < 0:
+                continue
+            while k < n and ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD == c:
+                if not shut[k]:
+                    lox = x0 + j[k] * h
+                    loy = y0 + i[k] * h
+                    hix = min(x0 + (j[k] + 1) * h, x1)
+                    hiy = min(y0 + (i[k] + 1) * h, y1)
+                    if _contains(sx, sy, lox, hix, loy, hiy, touch2, r2):
+                        shut[k] = True
+                k += 1
+    m = 0
+    for k in range(n):
+        first[((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD] = -1
+        if not shut[k]:
             i[m] = i[k]
             j[m] = j[k]
             m += 1
@@ -134,14 +157,34 @@ def close(i, j, n, level, h, x0, y0, x1, y1, stride, px, py, nbr, touch2, r2):
 
 
 @jit
-def split(i, j, n, level, hc, x0, y0, x1, y1, stride, px, py, nbr, touch2, r2, ci, cj):
+def split(i, j, n, level, hc, x0, y0, x1, y1, stride, p, nbr, touch2, r2, ci, cj):
     """Children (level + 1, quadrant order 2 * upper + right) of the n open sub-cells that lie in
     the domain and that no disk contains, written in order to ``ci``/``cj`` while they fit.
-    Returns how many there are (more than ``ci.size``: the caller grows the buffers, calls again)."""
+    Only the disks touching the parent are tried on its children (the numpy path's inherited
+    pairs). Returns how many children there are (more than ``ci.size``: the caller grows the
+    buffers and calls again)."""
     m = 0
     cap = ci.size
+    nx = np.empty(nbr.size)
+    ny = np.empty(nbr.size)
+    h = 2.0 * hc
     for k in range(n):
         c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
+        lox = x0 + j[k] * h
+        loy = y0 + i[k] * h
+        hix = min(x0 + (j[k] + 1) * h, x1)
+        hiy = min(y0 + (i[k] + 1) * h, y1)
+        near = 0
+        for t in range(nbr.size):
+            sx = p[c + nbr[t], 0]
+            if sx == sx:
+                sy = p[c + nbr[t], 1]
+                ax = max(max(lox - sx, sx - hix), 0.0)
+                ay = max(max(loy - sy, sy - hiy), 0.0)
+                if ax * ax + ay * ay < touch2:
+                    nx[near] = sx
+                    ny[near] = sy
+                    near += 1
         mx = x0 + (2 * j[k] + 1) * hc
         my = y0 + (2 * i[k] + 1) * hc
         for q in range(4):
@@ -151,11 +194,16 @@ def split(i, j, n, level, hc, x0, y0, x1, y1, stride, px, py, nbr, touch2, r2, c
                 continue
             ii = 2 * i[k] + qy
             jj = 2 * j[k] + qx
-            lox = x0 + jj * hc
-            loy = y0 + ii * hc
-            hix = min(x0 + (jj + 1) * hc, x1)
-            hiy = min(y0 + (ii + 1) * hc, y1)
-            if not _covered(c, lox, hix, loy, hiy, px, py, nbr, touch2, r2):
+            clox = x0 + jj * hc
+            cloy = y0 + ii * hc
+            chix = min(x0 + (jj + 1) * hc, x1)
+            chiy = min(y0 + (ii + 1) * hc, y1)
+            inside = False
+            for t in range(near):
+                if _contains(nx[t], ny[t], clox, chix, cloy, chiy, touch2, r2):
+                    inside = True
+                    break
+            if not inside:
                 if m < cap:
                     ci[m] = ii
                     cj[m] = jj
@@ -164,26 +212,26 @@ def split(i, j, n, level, hc, x0, y0, x1, y1, stride, px, py, nbr, touch2, r2, c
 
 
 @jit
-def grid_insert(x, y, x0, y0, side, stride, px, py, nbr, r2):
+def grid_insert(x, y, x0, y0, side, stride, p, nbr, r2):
     """The benchmark's limit: throw darts at the grid in the given order (cell look-up, taken
     test, 24-neighbour distance test, store): the least work a dart needs. Returns accepted."""
     won = 0
     for d in range(x.size):
         c = (int((y[d] - y0) / side) + PAD) * stride + int((x[d] - x0) / side) + PAD
-        if px[c] == px[c]:
+        if p[c, 0] == p[c, 0]:
             continue
         ok = True
         for m in range(nbr.size):
-            sx = px[c + nbr[m]]
+            sx = p[c + nbr[m], 0]
             if sx == sx:
                 ex = sx - x[d]
-                ey = py[c + nbr[m]] - y[d]
+                ey = p[c + nbr[m], 1] - y[d]
                 if ex * ex + ey * ey < r2:
                     ok = False
                     break
         if ok:
-            px[c] = x[d]
-            py[c] = y[d]
+            p[c, 0] = x[d]
+            p[c, 1] = y[d]
             won += 1
     return won
 
