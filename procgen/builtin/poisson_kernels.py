@@ -80,14 +80,12 @@ def throw(i, j, n, level, count, u, perm, ndart, h, x0, y0, x1, y1, xmax, ymax, 
         x = dart[t, 0]
         y = dart[t, 1]
         ok = True
-        for m in range(nbr.size):
-            sx = p[c + nbr[m], 0]
-            if sx == sx:
-                ex = sx - x
-                ey = p[c + nbr[m], 1] - y
-                if ex * ex + ey * ey < r2:
-                    ok = False
-                    break
+        for m in range(nbr.size):  # an empty cell holds NaN: never closer than r
+            ex = p[c + nbr[m], 0] - x
+            ey = p[c + nbr[m], 1] - y
+            if ex * ex + ey * ey < r2:
+                ok = False
+                break
         if ok:
             p[c, 0] = x
             p[c, 1] = y
@@ -175,16 +173,14 @@ def split(i, j, n, level, hc, x0, y0, x1, y1, stride, p, nbr, touch2, r2, ci, cj
         hix = min(x0 + (j[k] + 1) * h, x1)
         hiy = min(y0 + (i[k] + 1) * h, y1)
         near = 0
-        for t in range(nbr.size):
+        for t in range(nbr.size):  # branch-free: empty cells hold NaN and fail both tests
             sx = p[c + nbr[t], 0]
-            if sx == sx:
-                sy = p[c + nbr[t], 1]
-                ax = max(max(lox - sx, sx - hix), 0.0)
-                ay = max(max(loy - sy, sy - hiy), 0.0)
-                if ax * ax + ay * ay < touch2:
-                    nx[near] = sx
-                    ny[near] = sy
-                    near += 1
+            sy = p[c + nbr[t], 1]
+            ax = max(max(lox - sx, sx - hix), 0.0)
+            ay = max(max(loy - sy, sy - hiy), 0.0)
+            nx[near] = sx
+            ny[near] = sy
+            near += (sx == sx) & (ax * ax + ay * ay < touch2)
         mx = x0 + (2 * j[k] + 1) * hc
         my = y0 + (2 * i[k] + 1) * hc
         for q in range(4):
@@ -222,13 +218,11 @@ def grid_insert(x, y, x0, y0, side, stride, p, nbr, r2):
             continue
         ok = True
         for m in range(nbr.size):
-            sx = p[c + nbr[m], 0]
-            if sx == sx:
-                ex = sx - x[d]
-                ey = p[c + nbr[m], 1] - y[d]
-                if ex * ex + ey * ey < r2:
-                    ok = False
-                    break
+            ex = p[c + nbr[m], 0] - x[d]
+            ey = p[c + nbr[m], 1] - y[d]
+            if ex * ex + ey * ey < r2:
+                ok = False
+                break
         if ok:
             p[c, 0] = x[d]
             p[c, 1] = y[d]
