@@ -25,6 +25,23 @@ jit = numba.njit(cache=True, nogil=True)
 PAD = 2
 """Grid padding in cells (``poisson._PAD``): the 5x5 block of any cell stays inside the grid."""
 
+RING1 = 8
+"""The neighbour offsets come nearest first (``_Grid.near_first``): the first 8 are the cells
+touching the own cell. A sample two cells away cannot contain a sub-cell of level 0 or 1 that
+the domain does not clip: along that axis its farthest edge is at least 1.5 cell sides away,
+and (1.5 side)^2 = 1.125 r^2 > r^2 (12% margin, far above rounding). Clipped sub-cells lie
+in the last row or column of cells, so the shortcut is taken only away from those."""
+
+
+@jit
+def _reach(c, margin, level, stride, nx, ny, nbr):
+    """How many of the near-first neighbour offsets can hold a disk containing a sub-cell of
+    ``level`` in a cell up to ``margin`` cells from cell c (see RING1)."""
+    row = c // stride
+    if level <= 1 and row + margin < ny - 1 + PAD and c - row * stride + margin < nx - 1 + PAD:
+        return RING1
+    return nbr.size
+
 
 @jit
 def count_darts(i, j, n, u, cdf, h, x0, y0, x1, y1, lam, full, count, clip, mean):
@@ -111,7 +128,7 @@ def _contains(sx, sy, lox, hix, loy, hiy, touch2, r2):
 
 
 @jit
-def close(i, j, n, level, h, x0, y0, x1, y1, stride, p, nbr, touch2, r2, wcell, nwon, first, shut):
+def close(i, j, n, level, h, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2, wcell, nwon, first, shut):
     """Drop, in place and in order, the open sub-cells whose cell a new sample took or which
     one new disk contains (older samples closed theirs already). Sub-cells are sorted by cell:
     ``first`` (grid-sized, all -1 between calls) maps a cell to its first open sub-cell, and
@@ -130,7 +147,7 @@ def close(i, j, n, level, h, x0, y0, x1, y1, stride, p, nbr, touch2, r2, wcell, 
             k += 1
         sx = p[cw, 0]
         sy = p[cw, 1]
-        for m in range(nbr.size):
+        for m in range(_reach(cw, 2, level, stride, nx, ny, nbr)):
             c = cw + nbr[m]
             k = first[c]
             if k < 0:
@@ -155,7 +172,7 @@ def close(i, j, n, level, h, x0, y0, x1, y1, stride, p, nbr, touch2, r2, wcell, 
 
 
 @jit
-def split(i, j, n, level, hc, x0, y0, x1, y1, stride, p, nbr, touch2, r2, ci, cj):
+def split(i, j, n, level, hc, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2, ci, cj):
     """Children (level + 1, quadrant order 2 * upper + right) of the n open sub-cells that lie in
     the domain and that no disk contains, written in order to ``ci``/``cj`` while they fit.
     Only the disks touching the parent are tried on its children (the numpy path's inherited
@@ -163,8 +180,8 @@ def split(i, j, n, level, hc, x0, y0, x1, y1, stride, p, nbr, touch2, r2, ci, cj
     buffers and calls again)."""
     m = 0
     cap = ci.size
-    nx = np.empty(nbr.size)
-    ny = np.empty(nbr.size)
+    kx = np.empty(nbr.size)  # the parent's touching disks
+    ky = np.empty(nbr.size)
     h = 2.0 * hc
     for k in range(n):
         c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
@@ -173,13 +190,13 @@ def split(i, j, n, level, hc, x0, y0, x1, y1, stride, p, nbr, touch2, r2, ci, cj
         hix = min(x0 + (j[k] + 1) * h, x1)
         hiy = min(y0 + (i[k] + 1) * h, y1)
         near = 0
-        for t in range(nbr.size):  # branch-free: empty cells hold NaN and fail both tests
+        for t in range(_reach(c, 0, level + 1, stride, nx, ny, nbr)):  # branch-free: empty cells hold NaN and fail both tests
             sx = p[c + nbr[t], 0]
             sy = p[c + nbr[t], 1]
             ax = max(max(lox - sx, sx - hix), 0.0)
             ay = max(max(loy - sy, sy - hiy), 0.0)
-            nx[near] = sx
-            ny[near] = sy
+            kx[near] = sx
+            ky[near] = sy
             near += (sx == sx) & (ax * ax + ay * ay < touch2)
         mx = x0 + (2 * j[k] + 1) * hc
         my = y0 + (2 * i[k] + 1) * hc
@@ -196,7 +213,7 @@ def split(i, j, n, level, hc, x0, y0, x1, y1, stride, p, nbr, touch2, r2, ci, cj
             chiy = min(y0 + (ii + 1) * hc, y1)
             inside = False
             for t in range(near):
-                if _contains(nx[t], ny[t], clox, chix, cloy, chiy, touch2, r2):
+                if _contains(kx[t], ky[t], clox, chix, cloy, chiy, touch2, r2):
                     inside = True
                     break
             if not inside:
