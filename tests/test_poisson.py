@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import Voronoi, cKDTree
 
-from procgen.builtin import poisson as poisson_module
+from procgen import accel
 from procgen.builtin.poisson import PoissonDiskError, poisson_disk, poisson_disk_with_stats
 from procgen.errors import InputError
 
@@ -114,7 +114,8 @@ def test_any_rectangle_gives_a_maximal_poisson_disk_set(w, h, cells, ox, oy, see
 
 
 def test_accelerate_true_without_numba_is_a_clear_error(monkeypatch):
-    monkeypatch.setattr(poisson_module, "_numba_kernels", lambda: None)
+    monkeypatch.setattr(accel, "_load", lambda module: None)  # as if numba were not installed
+    monkeypatch.delenv(accel.ENV, raising=False)
     with pytest.raises(PoissonDiskError, match="numba"):
         poisson_disk_with_stats(np.random.default_rng(0), (1.0, 1.0), 0.1, accelerate=True)
     p, stats = poisson_disk_with_stats(np.random.default_rng(0), (1.0, 1.0), 0.1)  # falls back to numpy

@@ -18,18 +18,20 @@ rounds of darts run until nothing is left open:
 4. the loop ends when no open sub-cell is left: every point of the rectangle is then within r
    of a sample, i.e. the set is maximal (down to sub-cells a few ulps wide, see ``_MAX_LEVEL``).
 
-Every per-round step is whole-array numpy on flat arrays (no per-point Python loop). numba, when
-installed, replaces the three hot loops with compiled ones giving bit-identical results.
+Every per-round step is whole-array numpy on flat arrays (no per-point Python loop): the
+reference path. With numba (the ``fast`` extra) the rounds run as compiled loops over the
+background grid instead (procgen.builtin.poisson_kernels), drawing the same random numbers and
+giving bit-identical samples, ~3.5x faster (benchmarks/poisson.py).
 """
 from __future__ import annotations
 
 import functools
 import math
-import types
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from procgen.accel import kernels
 from procgen.errors import InputError
 
 __all__ = ["PoissonDiskError", "poisson_disk", "poisson_disk_with_stats", "MAX_GRID_CELLS"]
@@ -58,10 +60,13 @@ _FIRST_DARTS_PER_CELL = 0.5
 """Mean darts per cell in the very first round: the conflict graph grows with its square and
 the first round is the largest (measured at r = 0.004: 0.5 is ~15% faster overall than 1.0)."""
 
-_NUMBA_MIN_CELLS = 1_000_000
-"""Grid size from which ``accelerate=None`` uses numba. Importing numba and loading the cached
-kernels costs ~1 s per process (compiling them ~4 s, once per install) and the kernels save
-~25% of the run, so below ~1M cells (~350k samples) a fresh process is faster on numpy."""
+_NUMBA_MIN_CELLS = 400_000
+"""Grid size from which ``accelerate=None`` takes the compiled rounds (procgen.accel). Importing
+numba and loading the cached kernels costs ~0.5-1 s per process; the compiled rounds save
+~2.6 us per cell (measured at r = 0.004, 125k cells: numpy 3.7 us, compiled 1.0 us per cell),
+so they pay for themselves from ~400k cells (~140k samples)."""
+
+KERNELS = "procgen.builtin.poisson_kernels"
 
 _ROUNDS_AT_FLOOR = 64
 """Dart rounds allowed once sub-cells cannot be split further (only float-degenerate slivers,
@@ -398,16 +403,6 @@ def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, p
     return win[np.argsort(prio[win])[::-1]]
 
 
-@functools.cache
-def _numba_kernels():
-    """The compiled rounds (procgen.builtin.poisson_kernels), or None without numba."""
-    try:
-        from . import poisson_kernels
-    except ImportError:
-        return None
-    return poisson_kernels
-
-
 def _place_fixed(g: _Grid, o: _Open, fixed: np.ndarray) -> _Open:
     """Put already-placed samples (pairwise >= r apart, e.g. a neighbouring tile's) into the
     grid and the level-0 sub-cells' disk pairs, so that darts keep r from them and the cells
@@ -448,16 +443,17 @@ def poisson_disk_with_stats(
 ) -> tuple[np.ndarray, dict]:
     """Like :func:`poisson_disk`, also returning counters: rounds, darts, deepest level,
     sub-cells left open at the float floor, a per-round trace (level, open sub-cells, darts,
-    accepted) and whether numba ran. ``accelerate``: None = numba when installed and the grid has
-    at least _NUMBA_MIN_CELLS cells, False = pure numpy, True = numba or PoissonDiskError.
+    accepted) and whether numba ran. ``accelerate`` (see procgen.accel): None = compiled when numba
+    is installed and the grid has at least _NUMBA_MIN_CELLS cells, False = pure numpy, True =
+    compiled or PoissonDiskError.
     Both paths return identical arrays."""
     w, h, ox, oy, r, max_points = _validate(size, radius, origin, max_points)
     side = r / math.sqrt(2.0)
     cells = math.ceil(w / side) * math.ceil(h / side)
-    wanted = accelerate if accelerate is not None else cells >= _NUMBA_MIN_CELLS
-    kern = _numba_kernels() if wanted else None
-    if accelerate and kern is None:
-        raise PoissonDiskError("poisson_disk: accelerate=True needs numba, which is not installed")
+    try:
+        kern = kernels(KERNELS, accelerate, work=cells, min_work=_NUMBA_MIN_CELLS)
+    except InputError as exc:
+        raise PoissonDiskError(f"poisson_disk: {exc}") from None
     coord_ulp = math.ulp(max(abs(ox), abs(oy), abs(ox + w), abs(oy + h), side))
     g = _Grid(x0=ox, y0=oy, x1=ox + w, y1=oy + h, r=r, r2=r * r, touch2=(r + 16 * coord_ulp) ** 2 * (1 + 1e-12),
               side=side, nx=max(1, math.ceil(w / side)), ny=max(1, math.ceil(h / side)))

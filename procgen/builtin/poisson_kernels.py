@@ -12,8 +12,8 @@ Every float expression below is the numpy path's (``_Grid.bounds``, ``_touches``
 (tests/test_poisson.py checks it). Random numbers stay with numpy's Generator (drawn by the
 caller into preallocated buffers); these loops only consume them.
 
-Importing this module needs numba (the ``fast`` extra); ``poisson._numba_kernels`` imports it
-only when numba is installed. Kernels are cached on disk by numba (compiled once per install).
+Importing this module needs numba (the ``fast`` extra); poisson.py imports it only through
+procgen.accel.kernels. Kernels are cached on disk by numba (compiled once per install).
 """
 from __future__ import annotations
 
