@@ -190,6 +190,9 @@ def main() -> int:
     sc_points, sc_cpu = cpu(lambda: qmc.PoissonDisk(d=2, radius=r, seed=a.seed).fill_space())
     print(f"\nscipy.stats.qmc.PoissonDisk: {len(sc_points)} points in {sc_cpu:.2f} s cpu, largest gap "
           f"{largest_gap(sc_points, r) / r:.3f} r (not maximal when > 1)")
+    lim = row["limit"]
+    print(f"limit: {lim['points']} points inserted in {lim['seconds'] * lim['points'] * 1e3:.1f} ms cpu"
+          f" ({1 / lim['seconds']:,.0f} points/s); the same loop over {lim['darts_limit']}")
     ok = ours["numpy"].tobytes() == ours["compiled"].tobytes()
     print(f"numpy and compiled samples bit-identical: {ok}")
     for p, pts in ours.items():

@@ -175,13 +175,17 @@ def close(i, j, n, level, h, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2,
 def split(i, j, n, level, hc, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2, ci, cj):
     """Children (level + 1, quadrant order 2 * upper + right) of the n open sub-cells that lie in
     the domain and that no disk contains, written in order to ``ci``/``cj`` while they fit.
-    Only the disks touching the parent are tried on its children (the numpy path's inherited
-    pairs). Returns how many children there are (more than ``ci.size``: the caller grows the
-    buffers and calls again)."""
+    Returns how many children there are (more than ``ci.size``: the caller grows the buffers
+    and calls again).
+
+    A disk contains a child when its farthest corner is within r: per axis the larger square of
+    the distances to the child's two edges (the numpy path's ``_split_pairs``: the larger
+    distance, squared, is the same float). The three edges per axis (low, middle clipped to the
+    domain, high) are shared by the four children, so each disk of the block costs six squares,
+    without branches (an empty cell's NaN fails every test). Containment implies touching for
+    these non-empty children, so the touch test of the numpy path changes nothing here."""
     m = 0
     cap = ci.size
-    kx = np.empty(nbr.size)  # the parent's touching disks
-    ky = np.empty(nbr.size)
     h = 2.0 * hc
     for k in range(n):
         c = ((i[k] >> level) + PAD) * stride + (j[k] >> level) + PAD
@@ -189,60 +193,40 @@ def split(i, j, n, level, hc, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2
         loy = y0 + i[k] * h
         hix = min(x0 + (j[k] + 1) * h, x1)
         hiy = min(y0 + (i[k] + 1) * h, y1)
-        near = 0
-        for t in range(_reach(c, 0, level + 1, stride, nx, ny, nbr)):  # branch-free: empty cells hold NaN and fail both tests
-            sx = p[c + nbr[t], 0]
-            sy = p[c + nbr[t], 1]
-            ax = max(max(lox - sx, sx - hix), 0.0)
-            ay = max(max(loy - sy, sy - hiy), 0.0)
-            kx[near] = sx
-            ky[near] = sy
-            near += (sx == sx) & (ax * ax + ay * ay < touch2)
         mx = x0 + (2 * j[k] + 1) * hc
         my = y0 + (2 * i[k] + 1) * hc
+        midx = min(mx, x1)
+        midy = min(my, y1)
+        in0 = in1 = in2 = in3 = False
+        for t in range(_reach(c, 0, level + 1, stride, nx, ny, nbr)):
+            sx = p[c + nbr[t], 0]
+            sy = p[c + nbr[t], 1]
+            a0 = sx - lox
+            a1 = sx - midx
+            a2 = hix - sx
+            b0 = sy - loy
+            b1 = sy - midy
+            b2 = hiy - sy
+            a1 *= a1
+            b1 *= b1
+            fl = max(a0 * a0, a1)
+            fh = max(a1, a2 * a2)
+            gl = max(b0 * b0, b1)
+            gh = max(b1, b2 * b2)
+            in0 |= fl + gl <= r2
+            in1 |= fh + gl <= r2
+            in2 |= fl + gh <= r2
+            in3 |= fh + gh <= r2
         for q in range(4):
             qy = q >> 1
             qx = q & 1
             if (qy and not my < y1) or (qx and not mx < x1):
                 continue
-            ii = 2 * i[k] + qy
-            jj = 2 * j[k] + qx
-            clox = x0 + jj * hc
-            cloy = y0 + ii * hc
-            chix = min(x0 + (jj + 1) * hc, x1)
-            chiy = min(y0 + (ii + 1) * hc, y1)
-            inside = False
-            for t in range(near):
-                if _contains(kx[t], ky[t], clox, chix, cloy, chiy, touch2, r2):
-                    inside = True
-                    break
-            if not inside:
-                if m < cap:
-                    ci[m] = ii
-                    cj[m] = jj
-                m += 1
+            if (in0, in1, in2, in3)[q]:
+                continue
+            if m < cap:
+                ci[m] = 2 * i[k] + qy
+                cj[m] = 2 * j[k] + qx
+            m += 1
     return m
-
-
-@jit
-def grid_insert(x, y, x0, y0, side, stride, p, nbr, r2):
-    """The benchmark's limit: throw darts at the grid in the given order (cell look-up, taken
-    test, 24-neighbour distance test, store): the least work a dart needs. Returns accepted."""
-    won = 0
-    for d in range(x.size):
-        c = (int((y[d] - y0) / side) + PAD) * stride + int((x[d] - x0) / side) + PAD
-        if p[c, 0] == p[c, 0]:
-            continue
-        ok = True
-        for m in range(nbr.size):
-            ex = p[c + nbr[m], 0] - x[d]
-            ey = p[c + nbr[m], 1] - y[d]
-            if ex * ex + ey * ey < r2:
-                ok = False
-                break
-        if ok:
-            p[c, 0] = x[d]
-            p[c, 1] = y[d]
-            won += 1
-    return won
 
