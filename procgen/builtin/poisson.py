@@ -585,7 +585,7 @@ def _rounds_compiled(g: _Grid, o: _Open | None, rng: np.random.Generator, kern, 
         stats["rounds"] += 1
         stats["darts"] += darts
         stats["trace"].append((level, n, darts, won))
-        n = kern.close(b.i, b.j, n, level, h, *geom, g.stride, g.nx, g.ny, b.grid, g.near_first, g.touch2, g.r2,
+        n = kern.close(b.i, b.j, n, level, h, *geom, g.stride, g.nx, g.ny, b.grid, g.near_first, g.r2,
                        b.wcell, won, b.first, b.shut)
         if not n:
             break
@@ -595,7 +595,7 @@ def _rounds_compiled(g: _Grid, o: _Open | None, rng: np.random.Generator, kern, 
                 stats["leftover_subcells"] = n
                 break
         elif won / max(darts, 1) < _SPLIT_BELOW:
-            args = (n, level, math.ldexp(g.side, -level - 1), *geom, g.stride, g.nx, g.ny, b.grid, g.near_first, g.touch2, g.r2)
+            args = (n, level, math.ldexp(g.side, -level - 1), *geom, g.stride, g.nx, g.ny, b.grid, g.near_first, g.r2)
             m = kern.split(b.i, b.j, *args, b.ci, b.cj)
             if m > b.sub_cap:
                 b.grow_subcells(m, keep=n)

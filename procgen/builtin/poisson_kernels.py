@@ -115,22 +115,11 @@ def throw(i, j, n, level, count, u, perm, ndart, h, x0, y0, x1, y1, xmax, ymax, 
 
 
 @jit
-def _contains(sx, sy, lox, hix, loy, hiy, touch2, r2):
-    """The disk around (sx, sy) touches the rectangle and reaches its farthest corner: the
-    numpy path's ``_touches`` and ``_contains`` in the same float operations."""
-    ax = max(max(lox - sx, sx - hix), 0.0)
-    ay = max(max(loy - sy, sy - hiy), 0.0)
-    if ax * ax + ay * ay < touch2:
-        fx = max(sx - lox, hix - sx)
-        fy = max(sy - loy, hiy - sy)
-        return fx * fx + fy * fy <= r2
-    return False
-
-
-@jit
-def close(i, j, n, level, h, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2, wcell, nwon, first, shut):
+def close(i, j, n, level, h, x0, y0, x1, y1, stride, nx, ny, p, nbr, r2, wcell, nwon, first, shut):
     """Drop, in place and in order, the open sub-cells whose cell a new sample took or which
-    one new disk contains (older samples closed theirs already). Sub-cells are sorted by cell:
+    one new disk contains (older samples closed theirs already). The numpy path also asks that
+    the disk touch the sub-cell; a disk reaching the farthest corner always does (a sub-cell
+    is never empty, and ``touch2`` exceeds r^2 by 16 ulps of the coordinates). Sub-cells are sorted by cell:
     ``first`` (grid-sized, all -1 between calls) maps a cell to its first open sub-cell, and
     each new sample visits only the open sub-cells of its 5x5 block. Returns how many stay open."""
     for k in range(n):
@@ -158,8 +147,9 @@ def close(i, j, n, level, h, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2,
                     loy = y0 + i[k] * h
                     hix = min(x0 + (j[k] + 1) * h, x1)
                     hiy = min(y0 + (i[k] + 1) * h, y1)
-                    if _contains(sx, sy, lox, hix, loy, hiy, touch2, r2):
-                        shut[k] = True
+                    fx = max(sx - lox, hix - sx)  # farthest corner within r (``_contains``)
+                    fy = max(sy - loy, hiy - sy)
+                    shut[k] = fx * fx + fy * fy <= r2
                 k += 1
     m = 0
     for k in range(n):
@@ -172,7 +162,7 @@ def close(i, j, n, level, h, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2,
 
 
 @jit
-def split(i, j, n, level, hc, x0, y0, x1, y1, stride, nx, ny, p, nbr, touch2, r2, ci, cj):
+def split(i, j, n, level, hc, x0, y0, x1, y1, stride, nx, ny, p, nbr, r2, ci, cj):
     """Children (level + 1, quadrant order 2 * upper + right) of the n open sub-cells that lie in
     the domain and that no disk contains, written in order to ``ci``/``cj`` while they fit.
     Returns how many children there are (more than ``ci.size``: the caller grows the buffers
