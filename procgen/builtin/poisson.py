@@ -516,9 +516,10 @@ def _rounds_numpy(g: _Grid, o: _Open, rng: np.random.Generator, limit: float, st
 
 
 class _Scratch:
-    """Buffers of the compiled rounds, allocated once and grown (rarely) by doubling: per open
-    sub-cell (i, j, children, dart counts, uniforms, clipped ones) and per dart (uniforms,
-    priorities, position, cell, cells of the accepted ones) and grid-sized cell -> sub-cell index."""
+    """Buffers of the compiled rounds, allocated once per call and grown (rarely, by doubling):
+    the grid as (x, y) rows, a grid-sized cell -> first open sub-cell index, per open sub-cell
+    (i, j, children, dart counts, uniforms, clipped ones, closed flags) and per dart (uniforms,
+    priorities, x/y/cell by rank, cells of the accepted ones): ~200 B per grid cell."""
 
     def __init__(self, g: _Grid, subcells: int, darts: int):
         self.grid = np.column_stack((g.px, g.py))  # one cache line holds a sample's x and y
@@ -555,7 +556,7 @@ def _rounds_compiled(g: _Grid, o: _Open | None, rng: np.random.Generator, kern, 
     procgen.builtin.poisson_kernels): same random draws, same open sub-cells, same samples.
     Python only draws the random numbers (into preallocated buffers) and sequences the rounds."""
     cells = g.nx * g.ny
-    b = _Scratch(g, cells, int(cells * _FIRST_DARTS_PER_CELL * 1.25) + 64)
+    b = _Scratch(g, cells, int(cells * _DARTS_PER_SUBCELL * 1.25) + 64)  # ~ the largest round
     if o is None:
         n = cells
         b.i[:n], b.j[:n] = np.divmod(np.arange(n, dtype=np.int64), g.nx)

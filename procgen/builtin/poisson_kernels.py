@@ -4,11 +4,11 @@ Why a second formulation: the numpy path keeps, per open sub-cell, the list of s
 touching it (flat pairs) because whole-array code cannot afford to look around each sub-cell;
 building, filtering and splitting those pairs cost more than the dart throwing itself. A
 compiled loop can simply read the background grid: a sub-cell is closed exactly when its cell
-holds a sample or one sample of the 5x5 block around its cell contains it (Ebeida et al. 2011,
-section 3: a sub-cell is covered by a single disk), which is the set the pairs describe, so
-both paths keep the same open sub-cells in the same order and draw the same random numbers.
-Every float expression below is the numpy path's (``_Grid.bounds``, ``_touches``,
-``_contains``, ``_darts``), evaluated in the same order, so the samples are bit-identical
+holds a sample or one sample of the 5x5 block around its cell contains it (the single-disk
+coverage test of Ebeida et al. 2011), which is the set the pairs describe, so both paths keep
+the same open sub-cells in the same order and draw the same random numbers. Every float
+expression below is the numpy path's (``_Grid.bounds``, ``_contains``, ``_split_pairs``,
+``_darts``), evaluated in the same order, so the samples are bit-identical
 (tests/test_poisson.py checks it). Random numbers stay with numpy's Generator (drawn by the
 caller into preallocated buffers); these loops only consume them.
 
@@ -18,12 +18,10 @@ procgen.accel.kernels. Kernels are cached on disk by numba (compiled once per in
 from __future__ import annotations
 
 import numba
-import numpy as np
+
+from .poisson import _PAD as PAD  # grid padding: the 5x5 block of any cell is inside the grid
 
 jit = numba.njit(cache=True, nogil=True)
-
-PAD = 2
-"""Grid padding in cells (``poisson._PAD``): the 5x5 block of any cell stays inside the grid."""
 
 RING1 = 8
 """The neighbour offsets come nearest first (``_Grid.near_first``): the first 8 are the cells
