@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import Voronoi, cKDTree
 
-from procgen.builtin import poisson as poisson_module
+from procgen import accel
 from procgen.builtin.poisson import PoissonDiskError, poisson_disk, poisson_disk_with_stats
 from procgen.errors import InputError
 
@@ -114,7 +114,8 @@ def test_any_rectangle_gives_a_maximal_poisson_disk_set(w, h, cells, ox, oy, see
 
 
 def test_accelerate_true_without_numba_is_a_clear_error(monkeypatch):
-    monkeypatch.setattr(poisson_module, "_numba_kernels", lambda: None)
+    monkeypatch.setattr(accel, "_load", lambda module: None)  # as if numba were not installed
+    monkeypatch.delenv(accel.ENV, raising=False)
     with pytest.raises(PoissonDiskError, match="numba"):
         poisson_disk_with_stats(np.random.default_rng(0), (1.0, 1.0), 0.1, accelerate=True)
     p, stats = poisson_disk_with_stats(np.random.default_rng(0), (1.0, 1.0), 0.1)  # falls back to numpy
@@ -140,13 +141,44 @@ def test_deterministic_for_a_seed():
     assert a.shape != c.shape or not np.array_equal(a, c)
 
 
-def test_numba_and_numpy_paths_agree_bit_for_bit():
-    for seed, size, r, origin in [(1, (1.0, 1.0), 0.01, (0.0, 0.0)), (2, (2.0, 0.3), 0.013, (-3.0, 7.5))]:
-        a, sa = poisson_disk_with_stats(np.random.default_rng(seed), size, r, origin=origin, accelerate=False)
-        b, sb = poisson_disk_with_stats(np.random.default_rng(seed), size, r, origin=origin, accelerate=True)
-        assert not sa["numba"] and sb["numba"]
-        assert a.tobytes() == b.tobytes()
-        assert sa["trace"] == sb["trace"]
+def both_paths(seed: int, size, r: float, **kw):
+    """(numpy result, compiled result), each (points, stats), from the same seed."""
+    a = poisson_disk_with_stats(np.random.default_rng(seed), size, r, accelerate=False, **kw)
+    b = poisson_disk_with_stats(np.random.default_rng(seed), size, r, accelerate=True, **kw)
+    assert not a[1]["numba"] and b[1]["numba"]
+    return a, b
+
+
+@pytest.mark.parametrize("seed,size,r,origin", [
+    (1, (1.0, 1.0), 0.01, (0.0, 0.0)),
+    (2, (2.0, 0.3), 0.013, (-3.0, 7.5)),
+    (3, (1.0, 1e-4), 0.05, (0.0, 0.0)),  # a strip: children outnumber the cells (buffers grow)
+    (4, (0.7, 0.7), 0.3, (1e3, -2e3)),  # a handful of points, far from the origin
+])
+def test_numba_and_numpy_paths_agree_bit_for_bit(seed, size, r, origin):
+    (a, sa), (b, sb) = both_paths(seed, size, r, origin=origin)
+    assert a.tobytes() == b.tobytes()
+    assert sa == {**sb, "numba": False}  # same rounds, darts, depth and per-round trace
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(w=st.floats(1e-3, 2.0), h=st.floats(1e-3, 2.0), cells=st.floats(2.0, 40.0),
+       ox=st.floats(-1e3, 1e3), seed=st.integers(0, 2**32 - 1))
+def test_paths_agree_on_any_rectangle(w, h, cells, ox, seed):
+    (a, sa), (b, sb) = both_paths(seed, (w, h), max(w, h) / cells, origin=(ox, -ox))
+    assert a.tobytes() == b.tobytes() and sa["trace"] == sb["trace"]
+
+
+def test_paths_agree_with_fixed_samples_and_max_points():
+    """A neighbouring tile's samples (``fixed``, as the snaxel tiles pass them) and a cut-off
+    run give the same samples on both paths, and the joint set stays r-separated."""
+    r = 0.02
+    left = sample(5, (1.0, 1.0), r)
+    (a, _), (b, _) = both_paths(6, (1.0, 1.0), r, origin=(1.0, 0.0), fixed=left)
+    assert a.tobytes() == b.tobytes() and len(a) > 1000
+    assert min_pair_distance(np.concatenate([left, a])) >= r
+    (c, _), (d, _) = both_paths(6, (1.0, 1.0), r, origin=(1.0, 0.0), fixed=left, max_points=777)
+    assert c.tobytes() == d.tobytes() and np.array_equal(c, a[:777])
 
 
 def test_density_matches_rsa_jamming_limit():

@@ -18,18 +18,20 @@ rounds of darts run until nothing is left open:
 4. the loop ends when no open sub-cell is left: every point of the rectangle is then within r
    of a sample, i.e. the set is maximal (down to sub-cells a few ulps wide, see ``_MAX_LEVEL``).
 
-Every per-round step is whole-array numpy on flat arrays (no per-point Python loop). numba, when
-installed, replaces the three hot loops with compiled ones giving bit-identical results.
+Every per-round step is whole-array numpy on flat arrays (no per-point Python loop): the
+reference path. With numba (the ``fast`` extra) the rounds run as compiled loops over the
+background grid instead (procgen.builtin.poisson_kernels), drawing the same random numbers and
+giving bit-identical samples, ~3.5x faster (benchmarks/poisson.py).
 """
 from __future__ import annotations
 
 import functools
 import math
-import types
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from procgen.accel import kernels
 from procgen.errors import InputError
 
 __all__ = ["PoissonDiskError", "poisson_disk", "poisson_disk_with_stats", "MAX_GRID_CELLS"]
@@ -58,10 +60,13 @@ _FIRST_DARTS_PER_CELL = 0.5
 """Mean darts per cell in the very first round: the conflict graph grows with its square and
 the first round is the largest (measured at r = 0.004: 0.5 is ~15% faster overall than 1.0)."""
 
-_NUMBA_MIN_CELLS = 1_000_000
-"""Grid size from which ``accelerate=None`` uses numba. Importing numba and loading the cached
-kernels costs ~1 s per process (compiling them ~4 s, once per install) and the kernels save
-~25% of the run, so below ~1M cells (~350k samples) a fresh process is faster on numpy."""
+_NUMBA_MIN_CELLS = 400_000
+"""Grid size from which ``accelerate=None`` takes the compiled rounds (procgen.accel). Importing
+numba and loading the cached kernels costs ~0.5-1 s per process; the compiled rounds save
+~2.6 us per cell (measured at r = 0.004, 125k cells: numpy 3.7 us, compiled 1.0 us per cell),
+so they pay for themselves from ~400k cells (~140k samples)."""
+
+KERNELS = "procgen.builtin.poisson_kernels"
 
 _ROUNDS_AT_FLOOR = 64
 """Dart rounds allowed once sub-cells cannot be split further (only float-degenerate slivers,
@@ -90,6 +95,7 @@ class _Grid:
     px: np.ndarray = field(init=False)
     py: np.ndarray = field(init=False)
     nbr: np.ndarray = field(init=False)
+    near_first: np.ndarray = field(init=False)
     half: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
@@ -101,6 +107,8 @@ class _Grid:
         di, dj = np.meshgrid(d, d, indexing="ij")
         off = (di * self.stride + dj).ravel()
         self.nbr = off[off != 0]  # 24 neighbours; the own cell is handled separately
+        gap = (np.maximum(np.abs(di) - 1, 0) ** 2 + np.maximum(np.abs(dj) - 1, 0) ** 2).ravel()[off != 0]
+        self.near_first = self.nbr[np.argsort(gap, kind="stable")]  # likeliest conflicts first
         self.half = off[off >= 0]  # own cell and the 12 "later" neighbours: each cell pair once
 
     def cell_of(self, i: np.ndarray, j: np.ndarray, level: int) -> np.ndarray:
@@ -234,12 +242,9 @@ def _chunks(n: int, scale: int = 1):
     return (slice(k, min(k + step, n)) for k in range(0, n, step))
 
 
-def _link(g: _Grid, o: _Open, sx: np.ndarray, sy: np.ndarray, scell: np.ndarray, kern):
+def _link(g: _Grid, o: _Open, sx: np.ndarray, sy: np.ndarray, scell: np.ndarray):
     """Pairs (sub-cell, new sample) for every open sub-cell in the 5x5 block of each new sample
     whose rectangle the sample's disk touches, and which sub-cells a new disk contains."""
-    if kern is not None:
-        first = np.concatenate(([0], np.cumsum(np.bincount(o.cell, minlength=g.px.size))))
-        return kern.link(first, scell, sx, sy, g.nbr, *o.box, g.touch2, g.r2)
     index = _CellIndex(g, o.cell, scell.size * g.nbr.size)
     out: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = [(np.empty(0, dtype=np.int64), np.empty(0), np.empty(0))]
     covered = np.zeros(o.i.size, dtype=bool)
@@ -283,7 +288,7 @@ def _split_pairs(o: _Open, part: slice, mx, my, touch2: float, r2: float):
     return pr[0], vx[pr[1]], vy[pr[1]], child_of(np.flatnonzero(inside & touch))[0]
 
 
-def _split(g: _Grid, o: _Open, kern) -> _Open:
+def _split(g: _Grid, o: _Open) -> _Open:
     """Four children per open sub-cell; each inherits those of the parent's touching disks that
     touch it, and children outside the domain or inside one disk are dropped.
 
@@ -299,17 +304,12 @@ def _split(g: _Grid, o: _Open, kern) -> _Open:
     yes = np.ones(mx.size, dtype=bool)
     valid = (np.stack((yes, my < g.y1), axis=1)[:, :, None]
              & np.stack((yes, mx < g.x1), axis=1)[:, None, :]).reshape(-1, 4)
-    if kern is None:
-        parts = [_split_pairs(o, part, mx, my, g.touch2, g.r2) for part in _chunks(o.pair_sub.size, 8)]
-        csub, cx, cy, inside = (np.concatenate([p[k] for p in parts]) if parts else np.empty(0, dtype=t)
-                                for k, t in enumerate((np.int64, float, float, np.int64)))
-        del parts  # free the pieces before the children are filtered
-        covered = np.zeros((mx.size, 4), dtype=bool)
-        covered.ravel()[inside] = True
-    else:
-        csub, cx, cy, covered = kern.split_pairs(o.pair_sub, o.pair_x, o.pair_y, lox, hix, loy, hiy,
-                                                 mx, my, g.touch2, g.r2)
-        covered = covered.reshape(-1, 4)
+    parts = [_split_pairs(o, part, mx, my, g.touch2, g.r2) for part in _chunks(o.pair_sub.size, 8)]
+    csub, cx, cy, inside = (np.concatenate([p[k] for p in parts]) if parts else np.empty(0, dtype=t)
+                            for k, t in enumerate((np.int64, float, float, np.int64)))
+    del parts  # free the pieces before the children are filtered
+    covered = np.zeros((mx.size, 4), dtype=bool)
+    covered.ravel()[inside] = True
     keep = (valid & ~covered).ravel()
     kid = np.flatnonzero(keep)  # surviving children, 4 * parent + quadrant
     new_index = np.cumsum(keep) - 1
@@ -346,9 +346,9 @@ def _darts(g: _Grid, o: _Open, rng: np.random.Generator, lam: float):
     return sub, x, y, rng.permutation(sub.size)
 
 
-def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, prio: np.ndarray, kern) -> np.ndarray:
+def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, prio: np.ndarray) -> np.ndarray:
     """Accept exactly the darts that sequential throwing in decreasing priority would accept;
-    return them in decreasing priority (the numba path does just that, one dart after another).
+    return them in decreasing priority (the compiled path does just that, one dart after another).
 
     Darts within r of a sample (found through the sub-cell's touching disks) die. The live
     ones form a conflict graph (same cell, or closer than r; edges built per 13-cell half
@@ -357,10 +357,6 @@ def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, p
     greedy independent set in priority order, i.e. the sequential result, in O(edges) steps.
     """
     cell = o.cell[sub]
-    if kern is not None:
-        order = np.empty_like(prio)
-        order[prio.size - 1 - prio] = np.arange(prio.size)  # darts by decreasing priority
-        return kern.settle(order, cell, x, y, g.px, g.py, g.nbr, g.r2)
     count = np.bincount(sub, minlength=o.i.size)
     start = np.cumsum(count) - count
     k = count[o.pair_sub]  # each touching disk against every dart of its sub-cell
@@ -407,120 +403,6 @@ def _settle(g: _Grid, o: _Open, sub: np.ndarray, x: np.ndarray, y: np.ndarray, p
     return win[np.argsort(prio[win])[::-1]]
 
 
-# --- optional numba accelerator -------------------------------------------------------------
-# Plain-Python bodies of the hot loops, compiled by ``_numba_kernels``; never run uncompiled
-# (the numpy functions above are the fallback). They evaluate the same float expressions as
-# the numpy path, so both give bit-identical samples (tests/test_poisson.py checks it).
-
-
-def _settle_loop(order, cell, x, y, px, py, nbr, r2):
-    """Sequential dart throwing in the given order; returns the accepted darts."""
-    out = np.empty(order.size, dtype=np.int64)
-    n = 0
-    for t in range(order.size):
-        d = order[t]
-        c = cell[d]
-        if px[c] == px[c]:  # cell already holds a sample
-            continue
-        ok = True
-        for k in range(nbr.size):
-            sx = px[c + nbr[k]]
-            if sx == sx:
-                dx = sx - x[d]
-                dy = py[c + nbr[k]] - y[d]
-                if dx * dx + dy * dy < r2:
-                    ok = False
-                    break
-        if ok:
-            px[c] = x[d]
-            py[c] = y[d]
-            out[n] = d
-            n += 1
-    return out[:n]
-
-
-def _link_loop(first, scell, sx, sy, nbr, lox, hix, loy, hiy, touch2, r2):
-    """numba path of ``_link``."""
-    total = 0
-    for s in range(scell.size):
-        for k in range(nbr.size):
-            q = scell[s] + nbr[k]
-            total += first[q + 1] - first[q]
-    sub = np.empty(total, dtype=np.int64)
-    px = np.empty(total)
-    py = np.empty(total)
-    covered = np.zeros(lox.size, dtype=np.bool_)
-    n = 0
-    for s in range(scell.size):
-        vx = sx[s]
-        vy = sy[s]
-        for k in range(nbr.size):
-            q = scell[s] + nbr[k]
-            for m in range(first[q], first[q + 1]):
-                dx = max(max(lox[m] - vx, vx - hix[m]), 0.0)
-                dy = max(max(loy[m] - vy, vy - hiy[m]), 0.0)
-                if dx * dx + dy * dy < touch2:
-                    sub[n] = m
-                    px[n] = vx
-                    py[n] = vy
-                    n += 1
-                    fx = max(vx - lox[m], hix[m] - vx)
-                    fy = max(vy - loy[m], hiy[m] - vy)
-                    if fx * fx + fy * fy <= r2:
-                        covered[m] = True
-    return sub[:n], px[:n], py[:n], covered
-
-
-def _split_loop(s, px, py, lox, hix, loy, hiy, mx, my, touch2, r2):
-    """numba path of ``_split_pairs`` (same expressions, one parent pair at a time)."""
-    csub = np.empty(4 * s.size, dtype=np.int64)
-    cx = np.empty(4 * s.size)
-    cy = np.empty(4 * s.size)
-    covered = np.zeros(4 * mx.size, dtype=np.bool_)
-    near = np.empty(4)
-    far = np.empty(4)
-    n = 0
-    for t in range(s.size):
-        p = s[t]
-        vx = px[t]
-        vy = py[t]
-        low_hi = min(mx[p], hix[p])
-        near[0] = max(max(lox[p] - vx, vx - low_hi), 0.0)
-        near[1] = max(max(mx[p] - vx, vx - hix[p]), 0.0)
-        far[0] = max(vx - lox[p], low_hi - vx)
-        far[1] = max(vx - mx[p], hix[p] - vx)
-        low_hi = min(my[p], hiy[p])
-        near[2] = max(max(loy[p] - vy, vy - low_hi), 0.0)
-        near[3] = max(max(my[p] - vy, vy - hiy[p]), 0.0)
-        far[2] = max(vy - loy[p], low_hi - vy)
-        far[3] = max(vy - my[p], hiy[p] - vy)
-        for q in range(4):
-            c = 4 * p + q
-            ax = near[q & 1]
-            ay = near[2 + (q >> 1)]
-            if ax * ax + ay * ay < touch2:
-                csub[n] = c
-                cx[n] = vx
-                cy[n] = vy
-                n += 1
-                ax = far[q & 1]
-                ay = far[2 + (q >> 1)]
-                if ax * ax + ay * ay <= r2:
-                    covered[c] = True
-    return csub[:n], cx[:n], cy[:n], covered
-
-
-@functools.cache
-def _numba_kernels():
-    """Compiled kernels (cached on disk by numba), or None when numba is not installed."""
-    try:
-        import numba
-    except ImportError:
-        return None
-    jit = numba.njit(cache=True, nogil=True)
-    return types.SimpleNamespace(settle=jit(_settle_loop), link=jit(_link_loop), split_pairs=jit(_split_loop))
-
-
 def _place_fixed(g: _Grid, o: _Open, fixed: np.ndarray) -> _Open:
     """Put already-placed samples (pairwise >= r apart, e.g. a neighbouring tile's) into the
     grid and the level-0 sub-cells' disk pairs, so that darts keep r from them and the cells
@@ -561,34 +443,50 @@ def poisson_disk_with_stats(
 ) -> tuple[np.ndarray, dict]:
     """Like :func:`poisson_disk`, also returning counters: rounds, darts, deepest level,
     sub-cells left open at the float floor, a per-round trace (level, open sub-cells, darts,
-    accepted) and whether numba ran. ``accelerate``: None = numba when installed and the grid has
-    at least _NUMBA_MIN_CELLS cells, False = pure numpy, True = numba or PoissonDiskError.
+    accepted) and whether numba ran. ``accelerate`` (see procgen.accel): None = compiled when numba
+    is installed and the grid has at least _NUMBA_MIN_CELLS cells, False = pure numpy, True =
+    compiled or PoissonDiskError.
     Both paths return identical arrays."""
     w, h, ox, oy, r, max_points = _validate(size, radius, origin, max_points)
     side = r / math.sqrt(2.0)
     cells = math.ceil(w / side) * math.ceil(h / side)
-    wanted = accelerate if accelerate is not None else cells >= _NUMBA_MIN_CELLS
-    kern = _numba_kernels() if wanted else None
-    if accelerate and kern is None:
-        raise PoissonDiskError("poisson_disk: accelerate=True needs numba, which is not installed")
+    try:
+        kern = kernels(KERNELS, accelerate, work=cells, min_work=_NUMBA_MIN_CELLS)
+    except InputError as exc:
+        raise PoissonDiskError(f"poisson_disk: {exc}") from None
     coord_ulp = math.ulp(max(abs(ox), abs(oy), abs(ox + w), abs(oy + h), side))
     g = _Grid(x0=ox, y0=oy, x1=ox + w, y1=oy + h, r=r, r2=r * r, touch2=(r + 16 * coord_ulp) ** 2 * (1 + 1e-12),
               side=side, nx=max(1, math.ceil(w / side)), ny=max(1, math.ceil(h / side)))
-    ii, jj = np.meshgrid(np.arange(g.ny, dtype=np.int64), np.arange(g.nx, dtype=np.int64), indexing="ij")
-    o = _Open(0, ii.ravel(), jj.ravel(), np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)).locate(g)
-    if fixed is not None:
-        o = _place_fixed(g, o, fixed)
-    floor_rounds = 0
+    limit = math.inf if max_points is None else max_points
     stats: dict = {"rounds": 0, "darts": 0, "level": 0, "leftover_subcells": 0, "trace": [],
                    "numba": kern is not None}
+    o = None
+    if fixed is not None or kern is None:
+        ii, jj = np.meshgrid(np.arange(g.ny, dtype=np.int64), np.arange(g.nx, dtype=np.int64), indexing="ij")
+        o = _Open(0, ii.ravel(), jj.ravel(), np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)).locate(g)
+        if fixed is not None:
+            o = _place_fixed(g, o, fixed)
+    if kern is not None:
+        return _rounds_compiled(g, o, rng, kern, limit, stats, coord_ulp), stats
+    return _rounds_numpy(g, o, rng, limit, stats, coord_ulp), stats
+
+
+def _at_floor(g: _Grid, level: int, coord_ulp: float) -> bool:
+    """Sub-cells of ``level`` cannot be split further (see ``_MAX_LEVEL``)."""
+    return level >= _MAX_LEVEL or math.ldexp(g.side, -level) < 64 * coord_ulp
+
+
+def _rounds_numpy(g: _Grid, o: _Open, rng: np.random.Generator, limit: float, stats: dict,
+                  coord_ulp: float) -> np.ndarray:
+    """The dart rounds on whole arrays (the reference path); returns the samples."""
+    floor_rounds = 0
     out_x: list[np.ndarray] = []
     out_y: list[np.ndarray] = []
     n_out = 0
-    limit = math.inf if max_points is None else max_points
     while o.i.size and n_out < limit:
         lam = _FIRST_DARTS_PER_CELL if stats["rounds"] == 0 else _DARTS_PER_SUBCELL
         sub, x, y, prio = _darts(g, o, rng, lam)
-        wins = _settle(g, o, sub, x, y, prio, kern)
+        wins = _settle(g, o, sub, x, y, prio)
         take = wins[: int(min(limit - n_out, wins.size))]
         out_x.append(x[take])
         out_y.append(y[take])
@@ -599,22 +497,114 @@ def poisson_disk_with_stats(
         rate = wins.size / max(sub.size, 1)
         closed = ~np.isnan(g.px[o.cell])  # cell taken
         near = np.sort(wins)  # darts are sorted by cell: link in cell order for locality
-        sub, sx, sy, covered = _link(g, o, x[near], y[near], o.cell[sub[near]], kern)
+        sub, sx, sy, covered = _link(g, o, x[near], y[near], o.cell[sub[near]])
         o.add_pairs(sub, sx, sy)
         o = o.keep(g, ~(closed | covered))
         if not o.i.size:
             break
-        if o.level >= _MAX_LEVEL or math.ldexp(side, -o.level) < 64 * coord_ulp:
+        if _at_floor(g, o.level, coord_ulp):
             floor_rounds += 1
             if floor_rounds >= _ROUNDS_AT_FLOOR:
                 stats["leftover_subcells"] = int(o.i.size)
                 break
         elif rate < _SPLIT_BELOW:
-            o = _split(g, o, kern)
+            o = _split(g, o)
     stats["level"] = o.level
     if not out_x:
-        return np.empty((0, 2)), stats
-    return np.column_stack([np.concatenate(out_x), np.concatenate(out_y)]), stats
+        return np.empty((0, 2))
+    return np.column_stack([np.concatenate(out_x), np.concatenate(out_y)])
+
+
+class _Scratch:
+    """Buffers of the compiled rounds, allocated once per call and grown (rarely, by doubling):
+    the grid as (x, y) rows, a grid-sized cell -> first open sub-cell index, per open sub-cell
+    (i, j, children, dart counts, uniforms, clipped ones, closed flags) and per dart (uniforms,
+    priorities, x/y/cell by rank, cells of the accepted ones): ~200 B per grid cell."""
+
+    def __init__(self, g: _Grid, subcells: int, darts: int):
+        self.grid = np.column_stack((g.px, g.py))  # one cache line holds a sample's x and y
+        self.first = np.full(g.px.size, -1, dtype=np.int64)  # cell -> first open sub-cell, see close
+        self.sub_cap = self.dart_cap = 0
+        self.grow_subcells(subcells)
+        self.grow_darts(darts)
+
+    def grow_subcells(self, n: int, keep: int = 0) -> None:
+        if n <= self.sub_cap:
+            return
+        cap = max(n, 2 * self.sub_cap)
+        old = (self.i[:keep], self.j[:keep]) if keep else None
+        self.i, self.j, self.ci, self.cj, self.count, self.clip = (np.empty(cap, np.int64) for _ in range(6))
+        self.u, self.mean = np.empty(cap), np.empty(cap)
+        self.shut = np.empty(cap, dtype=bool)
+        if old:
+            self.i[:keep], self.j[:keep] = old
+        self.sub_cap = cap
+
+    def grow_darts(self, n: int) -> None:
+        if n <= self.dart_cap:
+            return
+        cap = max(n, 2 * self.dart_cap)
+        self.ud, self.dart = np.empty(2 * cap), np.empty((cap, 3))  # dart: x, y, cell
+        self.iota = np.arange(cap)
+        self.perm, self.wcell = np.empty(cap, np.int64), np.empty(cap, np.int64)
+        self.dart_cap = cap
+
+
+def _rounds_compiled(g: _Grid, o: _Open | None, rng: np.random.Generator, kern, limit: float,
+                     stats: dict, coord_ulp: float) -> np.ndarray:
+    """The dart rounds of ``_rounds_numpy`` as compiled loops over the grid (see
+    procgen.builtin.poisson_kernels): same random draws, same open sub-cells, same samples.
+    Python only draws the random numbers (into preallocated buffers) and sequences the rounds."""
+    cells = g.nx * g.ny
+    b = _Scratch(g, cells, int(cells * _DARTS_PER_SUBCELL * 1.25) + 64)  # ~ the largest round
+    if o is None:
+        n = cells
+        b.i[:n], b.j[:n] = np.divmod(np.arange(n, dtype=np.int64), g.nx)
+    else:
+        n = o.i.size
+        b.i[:n], b.j[:n] = o.i, o.j
+    out = np.empty((cells, 2))  # at most one sample per cell
+    n_out = level = floor_rounds = 0
+    xmax, ymax = np.nextafter(g.x1, -math.inf), np.nextafter(g.y1, -math.inf)
+    geom = (g.x0, g.y0, g.x1, g.y1)
+    while n and n_out < limit:
+        lam = _FIRST_DARTS_PER_CELL if stats["rounds"] == 0 else _DARTS_PER_SUBCELL
+        h = math.ldexp(g.side, -level)
+        u = rng.random(out=b.u[:n])
+        nclip = kern.count_darts(b.i, b.j, n, u, _poisson_cdf(lam), h, *geom, lam, h ** 2, b.count, b.clip, b.mean)
+        b.count[b.clip[:nclip]] = rng.poisson(b.mean[:nclip])
+        darts = int(b.count[:n].sum())
+        b.grow_darts(darts)
+        rng.random(out=b.ud[:2 * darts])
+        perm = b.perm[:darts]
+        perm[:] = b.iota[:darts]
+        rng.shuffle(perm)  # rng.permutation(darts), in place
+        room = int(min(limit - n_out, cells - n_out))
+        won = kern.throw(b.i, b.j, n, level, b.count, b.ud, b.perm, darts, h, *geom, xmax, ymax, g.stride,
+                         b.grid, g.near_first, g.r2, b.dart, out, n_out, room, b.wcell)
+        n_out += min(won, room)
+        stats["rounds"] += 1
+        stats["darts"] += darts
+        stats["trace"].append((level, n, darts, won))
+        n = kern.close(b.i, b.j, n, level, h, *geom, g.stride, g.nx, g.ny, b.grid, g.near_first, g.r2,
+                       b.wcell, won, b.first, b.shut)
+        if not n:
+            break
+        if _at_floor(g, level, coord_ulp):
+            floor_rounds += 1
+            if floor_rounds >= _ROUNDS_AT_FLOOR:
+                stats["leftover_subcells"] = n
+                break
+        elif won / max(darts, 1) < _SPLIT_BELOW:
+            args = (n, level, math.ldexp(g.side, -level - 1), *geom, g.stride, g.nx, g.ny, b.grid, g.near_first, g.r2)
+            m = kern.split(b.i, b.j, *args, b.ci, b.cj)
+            if m > b.sub_cap:
+                b.grow_subcells(m, keep=n)
+                m = kern.split(b.i, b.j, *args, b.ci, b.cj)
+            b.i, b.ci, b.j, b.cj = b.ci, b.i, b.cj, b.j
+            n, level = m, level + 1
+    stats["level"] = level
+    return out[:n_out].copy()
 
 
 def poisson_disk(
