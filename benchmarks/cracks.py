@@ -8,7 +8,8 @@ Prints, for the full size and for a baseline run of an eighth of the cells in th
 figure to trust on a shared, loaded machine) (cells, stack, stress + relaxation,
 propagation), CM steps, cracks, the unstable fraction at the end, the time per cell ratio
 (full / baseline: near 1 means the cost grows linearly with the cells) and the ratio against
-the thesis's 20 minutes; then the peak RSS of the process.
+the thesis's 20 minutes; cracks.render's CPU time per covered micro-cell (full / baseline:
+near 1 means its cost follows the covered micro-cells); then the peak RSS of the process.
 
     python benchmarks/cracks.py             # ~330,000 cells, plus the 1/8 baseline
     python benchmarks/cracks.py --quick     # ~40,000 cells, plus the 1/8 baseline
@@ -46,7 +47,8 @@ def run_plate(host, cells: int) -> dict:
     return {"cells": rep["cells.n_cells"], "total": total, "per_rule": per_rule, "cpu": cpu,
             "steps": rep["cracks.steps"], "cracks": rep["cracks.cracks"], "modules": rep["cracks.modules"],
             "unstable_start": rep["cracks.unstable_start_fraction"],
-            "unstable": rep["cracks.unstable_fraction"]}
+            "unstable": rep["cracks.unstable_fraction"],
+            "covered": rep["cells.cracks.covered_micro_cells"]}
 
 
 def show(label: str, r: dict) -> None:
@@ -75,6 +77,14 @@ def main() -> None:
         what = "wall" if kind == "per_rule" else "CPU"
         print(f"stress + propagation ({what}): {crack:.1f} s (target < 60 s); time per cell vs "
               f"baseline x{ratio:.2f}; thesis 20 min / ours = x{THESIS_SECONDS / max(crack, 1e-9):.0f}")
+    # cracks.render's work follows the micro-cells the cracks cover (widths are absolute, so
+    # they grow faster than the cells): its time per covered micro-cell should stay flat
+    per = {label: r["cpu"].get("cracks.render", 0.0) / max(r["covered"], 1) for label, r in
+           (("baseline", base), ("full", full))}
+    print(f"cracks.render: {full['covered']:,} covered micro-cells ({base['covered']:,} at the "
+          f"baseline, x{full['covered'] / max(base['covered'], 1):.1f} for x"
+          f"{full['cells'] / base['cells']:.1f} cells); {1e6 * per['full']:.2f} us CPU per covered "
+          f"micro-cell, x{per['full'] / max(per['baseline'], 1e-12):.2f} the baseline's")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak memory {peak:.0f} MB")
 

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from .ca.cells import kind_accepts, kind_text
 from .domains import DOMAIN_KINDS
 from .errors import PluginError, ProcgenError, RecipeError
+from .exchange.registry import field_options
 from .fields import UnitsLedger
 from .params import coerce, did_you_mean
 from .rules import RuleBase
@@ -276,12 +277,10 @@ class _Flow:
             raise RecipeError(f"{where}: format {fmt!r} writes {'/'.join(exporter.kinds)}, "
                               f"but domain {domain!r} is a {kind}")
         _check_exporter_options(fmt, options, host, where)
-        named = dict(options)
-        for pname, p in inspect.signature(exporter.func).parameters.items():
-            if pname.endswith("field") and pname not in named and isinstance(p.default, str) and p.default:
-                named[pname] = p.default   # the exporter's default field must exist too
-        for key, value in named.items():
-            if key.endswith("field") and isinstance(value, str) and (domain, value) not in self.fields:
+        named = {k: "" for k in options if k.endswith("field")} | field_options(exporter.func)
+        for key, default in named.items():
+            value = options.get(key, default)     # the exporter's default field must exist too
+            if isinstance(value, str) and value and (domain, value) not in self.fields:
                 have = sorted(f for d, f in self.fields if d == domain)
                 raise RecipeError(f"{where}: option {key}={value!r}: domain {domain!r} has no field "
                                   f"{value!r}{did_you_mean(value, have)}")

@@ -154,6 +154,56 @@ def test_pruned_coverage_equals_the_maximum_over_every_pair(profile, monkeypatch
     assert (covs[0] > 0).sum() > 5000 and covs[0].tobytes() == covs[1].tobytes()
 
 
+def _every_row_and_column(seg, radius, cells, k, cs):
+    """Reference scan: every micro-cell of each piece's facet grid (no reach at all)."""
+    nx, ny = cells.nx[seg.face] * k, cells.ny[seg.face] * k
+    piece = np.repeat(np.arange(len(seg)), ny)
+    my = np.arange(len(piece)) - np.repeat(np.cumsum(ny) - ny, ny)
+    return piece, my, np.zeros(len(piece), np.int64), nx[piece]
+
+
+@pytest.mark.parametrize("profile", ["v_linear", "u_linear"])
+def test_scanning_only_micro_cells_within_reach_keeps_the_bytes(profile, monkeypatch):
+    """Against every (piece, micro-cell) pair of the facet grids, all integrated (no bound)."""
+    lines = [[-0.42, -0.3, 0.05, -0.1, 0.05, 0.12, 0.2, -0.12, 0.02, 0.41, 0.3, 0.08],
+             [-0.3, 0.35, 0.03, 0.3, -0.38, 0.06], [-0.45, 0.1, 0.02, 0.45, 0.1, 0.09],
+             [0.1, -0.45, 0.01, 0.1, 0.45, 0.07]]                  # horizontal and vertical too
+    covs = []
+    for reach in (True, False):
+        state = flat_state(lines, size=0.05)
+        if not reach:
+            monkeypatch.setattr(render, "_row_spans", _every_row_and_column)
+            monkeypatch.setattr(render, "coverage_bound", lambda dist, *a: np.full(len(dist), np.inf))
+        RenderCracks(k=7, profile=profile).step(state)
+        covs.append(np.asarray(state.get("cells")["crack__coverage"]))
+    assert (covs[0] > 0).sum() > 3000 and covs[0].tobytes() == covs[1].tobytes()
+
+
+def test_row_spans_hold_every_micro_cell_within_reach_and_little_else():
+    """Random pieces, every direction (axis-aligned included), thin to many micro-cells wide."""
+    state = flat_state([[0.0, 0.0, 0.01, 0.1, 0.0, 0.01]], size=0.05)
+    cells, k, cs = state.get("cells"), 8, 0.05 / 8
+    rng = np.random.default_rng(11)
+    n = 400
+    a = rng.uniform(-0.45, 0.45, (n, 2))
+    ang = rng.choice([0.0, np.pi / 2, np.pi / 4, 1.0], n) + rng.choice([0.0, 1.0], n) * rng.uniform(0, 7, n)
+    b = a + 0.05 * rng.uniform(0.1, 1.0, n)[:, None] * np.column_stack([np.cos(ang), np.sin(ang)])
+    seg = render.Segments(np.zeros(n, np.int64), a, b, np.zeros(n), np.zeros(n))
+    fr = cells.layout.frames
+    seg = render.Segments(seg.face, fr.to_2d(seg.face, np.column_stack([a, np.zeros(n)])),
+                          fr.to_2d(seg.face, np.column_stack([b, np.zeros(n)])), seg.wa, seg.wb)
+    radius = cs * rng.uniform(0.7, 12.0, n)
+    piece, mx, my = render._pairs(render._row_spans(seg, radius, cells, k, cs))
+    got = set(zip(piece.tolist(), mx.tolist(), my.tolist()))
+    ref = render._pairs(_every_row_and_column(seg, radius, cells, k, cs))
+    p = (np.column_stack([ref[1], ref[2]]) + 0.5) * cs
+    d = render._point_segment_distance(p, seg.a[ref[0]], seg.b[ref[0]])
+    within = d < radius[ref[0]]
+    want = set(zip(*(v[within].tolist() for v in ref)))
+    assert len(want) > 20_000 and want <= got
+    assert len(got) < 1.5 * len(want)                  # the scan follows the capsule, not the box
+
+
 def test_texture_changes_only_in_cracked_cells_and_shows_the_lower_layer():
     state = flat_state([[-0.45, -0.3, 0.004, -0.1, 0.05, 0.06, 0.45, 0.35, 0.01]])
     sc = state.get("cells")

@@ -68,3 +68,20 @@ def test_plates_5_16_and_5_17_peel_along_the_crack_models_cracks(name):
     rules = [s["rule"] for s in read_toml(find_recipe(f"meshes/{name}", host))["steps"]]
     assert "cracks.imposed" not in rules
     assert rules.index("cracks.stress") < rules.index("cracks.propagate") < rules.index("cracks.peel")
+
+
+def test_plate_5_17_first_picture_is_the_cracked_cells_before_any_peeling():
+    """Thesis plate 5.17 (a): the cells of the precomputed cracks in black, nothing peeled yet."""
+    host = get_plugin_manager()
+    data = read_toml(find_recipe("meshes/plate-5-17", host))
+    ids = [s.get("id") for s in data["steps"]]
+    assert ids.index("cracks") < ids.index("crackview") < ids.index("peel")
+    first = data["outputs"][0]
+    assert first["options"]["color_by"] == "surface__color"
+    peel = host.rule("cracks.peel")         # the peel leaves that colour field as painted
+    assert all(f.name != "surface__color" for f in peel.fields if f.intent == "out")
+    sc = run_plate("plate-5-17", keep_after="crackview").state.get("cells")
+    cracked = np.asarray(sc["crack__width"])[:, -1] > 0
+    rgb = np.asarray(sc["surface__color"])
+    assert 0.05 < cracked.mean() < 0.6
+    assert np.all(rgb[cracked] == 0.0) and np.all(rgb[~cracked] == 1.0)

@@ -25,8 +25,9 @@ The thesis approximates the coverage double integral by the clipped lengths of l
 (sum of f(X_i) dx dl / C_s).  Here the same integral, (1/C_s) \\iint_cell f(dist) dA, is evaluated
 exactly for a straight segment: the micro-cell's chord length at normal offset t is a trapezoid,
 f is piecewise polynomial, so a 3-point Gauss-Legendre rule per piece between the breakpoints is
-exact.  Everything is numpy over all (segment piece, micro-cell) pairs; several pieces over one
-micro-cell combine by their maximum.  A crack many cells wide overlaps itself over several pieces
+exact.  Everything is numpy over the (segment piece, micro-cell) pairs within reach: per piece
+and micro-cell row, the columns inside the piece's capsule (not its bounding box); several pieces
+over one micro-cell combine by their maximum.  A crack many cells wide overlaps itself over several pieces
 (each piece's round ends reach far past it), so a pair is only integrated when a cheap upper
 bound of its coverage (:func:`coverage_bound`) reaches the micro-cell's current value: the
 result is the same maximum, bit for bit.
@@ -45,7 +46,8 @@ PROFILES = ("constant", "v_linear", "v_parabolic_a", "v_parabolic_b",
 
 _GL_X = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
 _GL_W = np.array([5.0, 8.0, 5.0]) / 9.0
-_PAIR_CHUNK = 200_000            # (piece, micro-cell) pairs evaluated at once
+_PAIR_CHUNK = 200_000            # (piece, micro-cell) pairs scanned at once
+_EVAL_CHUNK = 8_192              # pairs integrated at once (temporaries stay in cache)
 
 
 def _check_profile(profile: str) -> None:
@@ -260,24 +262,65 @@ def unfold_across_edges(cells, seg: Segments, reach: np.ndarray) -> Segments:
     return Segments(fb, unfold(seg.a[idx]), unfold(seg.b[idx]), seg.wa[idx], seg.wb[idx])
 
 
-def _spans(seg: Segments, reach: np.ndarray, cells, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """First micro-cell (x, y) and micro-cell counts (x, y) of each piece's padded bounding box."""
-    cs = cells.size / k
-    lo = np.floor((np.minimum(seg.a, seg.b) - reach[:, None]) / cs).astype(np.int64)
-    hi = np.floor((np.maximum(seg.a, seg.b) + reach[:, None]) / cs).astype(np.int64)
+def _interval(lo: np.ndarray, hi: np.ndarray, coef: np.ndarray, rhs_lo: np.ndarray,
+              rhs_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """[lo, hi] intersected with {x : rhs_lo <= coef x <= rhs_hi} (all x or none when coef = 0)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x1, x2 = rhs_lo / coef, rhs_hi / coef
+    zero = coef == 0.0
+    inside = (rhs_lo <= 0.0) & (rhs_hi >= 0.0)
+    a = np.where(zero, np.where(inside, -np.inf, np.inf), np.minimum(x1, x2))
+    b = np.where(zero, np.where(inside, np.inf, -np.inf), np.maximum(x1, x2))
+    return np.maximum(lo, a), np.minimum(hi, b)
+
+
+def _row_spans(seg: Segments, radius: np.ndarray, cells, k: int,
+               cs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(piece, micro row, first micro column, columns) of the micro-cells within reach.
+
+    Per piece and micro-cell row, the columns whose centres lie within ``radius`` of the piece:
+    the capsule is convex, so its trace on the row's centre line is one interval, the hull of
+    the traces of its two end discs and of its rectangle (widened by a micro-cell each side
+    against rounding).  Only these pairs are scanned, not the piece's bounding box.
+    """
     top = np.column_stack([cells.nx[seg.face], cells.ny[seg.face]]) * k - 1
-    lo, hi = np.clip(lo, 0, top), np.clip(hi, 0, top)
-    return lo, np.where(top >= 0, hi - lo + 1, 0)
+    ylo = np.clip(np.floor((np.minimum(seg.a[:, 1], seg.b[:, 1]) - radius) / cs), 0, top[:, 1])
+    yhi = np.clip(np.floor((np.maximum(seg.a[:, 1], seg.b[:, 1]) + radius) / cs), 0, top[:, 1])
+    rows = np.where(top[:, 1] >= 0, yhi - ylo + 1, 0).astype(np.int64)
+    idx = np.repeat(np.arange(len(seg)), rows)
+    my = ylo.astype(np.int64)[idx] + np.arange(len(idx)) - np.repeat(np.cumsum(rows) - rows, rows)
+    y = (my + 0.5) * cs
+    a, b, r = seg.a[idx], seg.b[idx], radius[idx]
+    lo, hi = np.full(len(idx), np.inf), np.full(len(idx), -np.inf)
+    for end in (a, b):                                        # the end discs
+        h2 = r * r - (y - end[:, 1]) ** 2
+        h = np.sqrt(np.maximum(h2, 0.0))
+        lo = np.where(h2 > 0, np.minimum(lo, end[:, 0] - h), lo)
+        hi = np.where(h2 > 0, np.maximum(hi, end[:, 0] + h), hi)
+    ab = b - a
+    ln = np.linalg.norm(ab, axis=1)
+    u = ab / ln[:, None]
+    dy = y - a[:, 1]
+    # rectangle: 0 <= (p - a).u <= |ab| and |(p - a).n| <= r, with n = (-u_y, u_x)
+    rlo, rhi = _interval(np.full(len(idx), -np.inf), np.full(len(idx), np.inf), u[:, 0],
+                         -dy * u[:, 1], ln - dy * u[:, 1])
+    rlo, rhi = _interval(rlo, rhi, -u[:, 1], -r - dy * u[:, 0], r - dy * u[:, 0])
+    rlo, rhi = rlo + a[:, 0], rhi + a[:, 0]
+    lo = np.where(rlo <= rhi, np.minimum(lo, rlo), lo)
+    hi = np.where(rlo <= rhi, np.maximum(hi, rhi), hi)
+    ok = lo <= hi
+    x0 = np.clip(np.floor(np.where(ok, lo, 0.0) / cs - 0.5) - 1, 0, top[idx, 0]).astype(np.int64)
+    x1 = np.clip(np.ceil(np.where(ok, hi, 0.0) / cs - 0.5) + 1, 0, top[idx, 0]).astype(np.int64)
+    cols = np.where(ok & (top[idx, 0] >= 0), x1 - x0 + 1, 0)
+    return idx, my, x0, cols
 
 
-def _pairs(seg: Segments, reach: np.ndarray, cells, k: int) -> tuple[np.ndarray, ...]:
-    """(piece, micro x, micro y) of every micro-cell within ``reach`` of a piece's bounding box."""
-    lo, span = _spans(seg, reach, cells, k)
-    cnt = span[:, 0] * span[:, 1]
-    idx = np.repeat(np.arange(len(seg)), cnt)
-    local = np.arange(len(idx)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    wx = span[idx, 0]
-    return idx, lo[idx, 0] + local % wx, lo[idx, 1] + local // wx
+def _pairs(spans: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+    """(piece, micro x, micro y) of every micro-cell of the row spans."""
+    piece, my, x0, cols = spans
+    idx = np.repeat(np.arange(len(piece)), cols)
+    local = np.arange(len(idx)) - np.repeat(np.cumsum(cols) - cols, cols)
+    return piece[idx], x0[idx] + local, my[idx]
 
 
 def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
@@ -305,20 +348,21 @@ def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
         pieces = pieces.select(np.asarray(faces, bool)[pieces.face])
     if len(pieces) == 0:
         return out.reshape(cells.n_cells, k, k)
-    reach = 0.5 * np.maximum(pieces.wa, pieces.wb) + cs
-    span = _spans(pieces, reach, cells, k)[1]
-    cum = np.cumsum(span[:, 0] * span[:, 1])
-    cuts = np.searchsorted(cum, np.arange(_PAIR_CHUNK, cum[-1], _PAIR_CHUNK))
-    edges = np.unique(np.concatenate([[0], cuts, [len(pieces)]]))
-    for start, stop in zip(edges[:-1], edges[1:]):          # chunks of pieces: bounded memory
-        part = pieces.select(np.arange(start, stop))
-        _accumulate(out, cells, part, reach[start:stop], k, cs, profile, saturation)
+    radius = 0.5 * np.maximum(pieces.wa, pieces.wb) + cs * np.sqrt(0.5)
+    spans = _row_spans(pieces, radius, cells, k, cs)
+    cum = np.cumsum(spans[3])
+    cuts = np.searchsorted(cum, np.arange(_PAIR_CHUNK, cum[-1], _PAIR_CHUNK)) if len(cum) else []
+    edges = np.unique(np.concatenate([[0], cuts, [len(cum)]]).astype(np.int64))
+    for start, stop in zip(edges[:-1], edges[1:]):          # chunks of rows: bounded memory
+        _accumulate(out, cells, pieces, tuple(v[start:stop] for v in spans), k, cs, profile,
+                    saturation)
     return out.reshape(cells.n_cells, k, k)
 
 
-def _accumulate(out: np.ndarray, cells, seg: Segments, reach: np.ndarray, k: int, cs: float,
-                profile: str, saturation: float) -> None:
-    idx, mx, my = _pairs(seg, reach, cells, k)
+def _accumulate(out: np.ndarray, cells, seg: Segments, spans: tuple[np.ndarray, ...], k: int,
+                cs: float, profile: str, saturation: float) -> None:
+    """Raise ``out`` to each micro-cell's largest coverage by the pieces whose spans cover it."""
+    idx, mx, my = _pairs(spans)
     p = (np.column_stack([mx, my]) + 0.5) * cs
     a, b = seg.a[idx], seg.b[idx]
     ab = b - a
@@ -340,10 +384,12 @@ def _accumulate(out: np.ndarray, cells, seg: Segments, reach: np.ndarray, k: int
     # beside a piece (projection inside it) go first and raise those values; the pairs off a
     # piece's ends (its round caps, mostly covered better by the next piece) are then pruned.
     beside = (t > 0.0) & (t < 1.0)
-    for rows in (np.nonzero(beside)[0], np.nonzero(~beside)[0]):
-        rows = rows[ub[rows] >= out[flat[rows]]]
-        cov = band_coverage(dist[rows], c[rows], s[rows], width[rows], cs, profile, saturation)
-        np.maximum.at(out, flat[rows], cov.astype(np.float32))
+    for pass_rows in (np.nonzero(beside)[0], np.nonzero(~beside)[0]):
+        for start in range(0, len(pass_rows), _EVAL_CHUNK):       # cache-sized batches
+            rows = pass_rows[start:start + _EVAL_CHUNK]
+            rows = rows[ub[rows] >= out[flat[rows]]]
+            cov = band_coverage(dist[rows], c[rows], s[rows], width[rows], cs, profile, saturation)
+            np.maximum.at(out, flat[rows], cov.astype(np.float32))
 
 
 def facet_segments(cells, points: np.ndarray, offsets: np.ndarray, face: np.ndarray,

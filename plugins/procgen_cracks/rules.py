@@ -370,7 +370,9 @@ class PaintCracks(RuleBase):
 
     ``show = "cracks"``: the stack's unlit colours (as ``layers.shade lit=false``) with the
     cracked layer removed where ``crack__width`` > 0, so the layer below shows through;
-    ``"stress"``: the strongest axis of a layer's spectrum through a colour map (plates 5.1, 5.2).
+    ``"stress"``: the strongest axis of a layer's spectrum through a colour map (plates 5.1, 5.2);
+    ``"cracked"``: the data view of plate 5.17 (a), the cells of the layer's cracks in black on
+    white, as the peeling starts from them (the palette of ``cracks.peel``'s views).
     """
 
     name: ClassVar[str] = "cracks.paint"
@@ -380,7 +382,8 @@ class PaintCracks(RuleBase):
         FieldSpec(THICKNESS, CELLS, "cell", "in", units="length"),
         FieldSpec("{field}", CELLS, "cell", "out", units="rgb", doc="colour in [0, 1]"),)
     cells: str = param("cells", doc="SurfaceCells domain")
-    show: str = param("cracks", choices=("cracks", "stress"), doc="what to colour")
+    show: str = param("cracks", choices=("cracks", "stress", "cracked"),
+                      doc="what to colour: the stack through the cracks, the stress, or cracked cells black")
     field: str = param("surface__color", doc="cell colour field to write")
     layer: int = param(-1, doc="stack layer shown (cracked or stressed; -1 = top)")
     cmap: str = param("magma", doc="stress: matplotlib colour map")
@@ -402,6 +405,11 @@ class PaintCracks(RuleBase):
                 raise InputError(f"{self.name}: no {SPECTRUM} on {self.cells!r} (run cracks.stress first)")
             v = np.asarray(dom[SPECTRUM], float)[:, li].max(axis=-1)
             rgb = to_rgb8(v[None, :], self.cmap, 0.0, self.vmax or float(v.max()) or 1.0)[0] / 255.0
+        elif self.show == "cracked":
+            if WIDTH not in dom:
+                raise InputError(f"{self.name}: no {WIDTH} on {self.cells!r} (run cracks.propagate first)")
+            cracked = np.asarray(dom[WIDTH])[:, li] > 0
+            rgb = np.repeat(np.where(cracked, 0.0, 1.0)[:, None], 3, axis=1)
         else:
             if WIDTH in dom:
                 t[np.asarray(dom[WIDTH])[:, li] > 0, li] = 0.0

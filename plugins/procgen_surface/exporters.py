@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from procgen import Exporter, InputError, Polylines
+from procgen import Exporter, FieldName, InputError, Polylines
 from procgen.lighting import light_direction
 
 from procgen_layers.rules import cell_stack_colors
@@ -110,7 +110,7 @@ def build_export(sc: SurfaceCells, *, color_by: str = "surface__color", texels: 
 def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, vertex_colors: bool = False,
-                textured: bool = True, max_triangles: int = 1_500_000, relief: str = "",
+                textured: bool = True, max_triangles: int = 1_500_000, relief: FieldName = "",
                 relief_scale: float = 1.0, relief_rim: float = 0.5) -> dict[str, bytes]:
     """OBJ + MTL + PNG atlas of the cells, displaced by the stacked layer thickness (and a
     ``relief`` cell field, see procgen_surface.relief)."""
@@ -126,7 +126,7 @@ def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
 def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, textured: bool = True,
-                max_triangles: int = 1_500_000, relief: str = "", relief_scale: float = 1.0,
+                max_triangles: int = 1_500_000, relief: FieldName = "", relief_scale: float = 1.0,
                 relief_rim: float = 0.5) -> bytes:
     """Binary glTF of the same displaced, textured mesh (vertex colours if not textured)."""
     sc = _check(domain, "surface_glb")
@@ -143,7 +143,7 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 light_azimuth: float | None = None, light_elevation: float = 50.0,
                 cells_per_segment: float = 4.0, exaggerate: float = 0.02,
                 max_triangles: int = 400_000, background: list[int] | None = None,
-                antialias: int = 1, relight: bool = True, relief: str = "",
+                antialias: int = 1, relight: bool = True, relief: FieldName = "",
                 relief_scale: float = 1.0, relief_rim: float = 0.5, relief_slope: float = 1.0) -> bytes:
     """Preview PNG from a fixed camera, coloured per pixel by the cell under it.
 
