@@ -37,7 +37,6 @@ class Work:
         self.status0 = np.empty(n, np.int8)
         self.open_ = np.empty(n, np.uint8)
         self.newc = np.zeros(n, np.uint8)
-        self.flag = np.empty(n, np.uint8)          # front cell
         self.front = np.empty(n, np.int64)
         self.eoff = np.empty(n + 1, np.int64)      # first entry of each front row (+ the end)
         self.coff = np.empty(n + 1, np.int64)      # first attack of each front row (+ the end)
@@ -76,8 +75,8 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
     _open_cells(st.status, st.consumable, st.product, st.age, st.strong, blk, work.status0, work.open_,
                 float(prm.k1), float(prm.k2), float(prm.k3), work.chunk_counts)
     npool, holes = int(work.chunk_counts[0]), int(work.chunk_counts[1])
-    nfront, ne = _front(graph.indptr, graph.indices, work.status0, work.open_, work.flag, work.front,
-                        work.eoff, work.chunk_counts)
+    nfront, ne = _front(graph.indptr, graph.indices, work.status0, work.open_, work.front, work.eoff,
+                        work.chunk_counts)
     work.nfront = nfront
     seeds = np.zeros(0, np.int64)
     room = prm.max_seeds - st.seeds_used
@@ -163,54 +162,45 @@ def _open_cells(status, consumable, product, age, strong, blocked, status0, open
     counts[1] = holes
 
 
-def _front(indptr, indices, status0, open_, flag, front, eoff, counts):
+def _front(indptr, indices, status0, open_, front, eoff, counts):
     """The front (corroded cells touching an open cell, in cell order), its entry offsets
-    eoff and entry count: each chunk of cells flags and counts its front cells, then fills
-    its slice after a prefix sum of the counts (the same list as a serial scan, in parallel)."""
-    _front_count(indptr, indices, status0, open_, flag, counts)
-    _prefix(counts)
-    _front_fill(flag, counts, front)
-    nfront = int(counts[-1])
+    eoff and entry count: each chunk of cells lists its front cells in its own slice of
+    ``front`` (a chunk has no more front cells than cells), in parallel, then the slices are
+    moved together in chunk order (the same list as a serial scan)."""
+    _front_chunks(indptr, indices, status0, open_, front, counts)
+    nfront = _gather_chunks(status0.size, front, counts)
     _entry_offsets(indptr, front, nfront, eoff)
     return nfront, int(eoff[nfront])
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _front_count(indptr, indices, status0, open_, flag, counts):
+def _front_chunks(indptr, indices, status0, open_, front, counts):
     n = status0.size
     nb = counts.size - 1
     for b in prange(nb):
-        m = 0
+        r = b * n // nb
         for c in range(b * n // nb, (b + 1) * n // nb):
-            f = 0
             if status0[c] == CORRODED:
                 for j in range(indptr[c], indptr[c + 1]):
                     if open_[indices[j]]:
-                        f = 1
+                        front[r] = c
+                        r += 1
                         break
-            flag[c] = f
-            m += f
-        counts[b + 1] = m
+        counts[b] = r - b * n // nb
 
 
 @njit(cache=True, nogil=True)
-def _prefix(counts):
-    """counts[1:] per chunk -> counts[b] = the first slot of chunk b (counts[0] = 0)."""
-    counts[0] = 0
-    for b in range(1, counts.size):
-        counts[b] += counts[b - 1]
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def _front_fill(flag, counts, front):
-    n = flag.size
+def _gather_chunks(n, front, counts):
+    """Move each chunk's list (counts[b] cells from its first cell's slot) to the end of the
+    previous ones; returns the front's length."""
     nb = counts.size - 1
-    for b in prange(nb):
-        r = counts[b]
-        for c in range(b * n // nb, (b + 1) * n // nb):
-            if flag[c]:
-                front[r] = c
-                r += 1
+    m = 0
+    for b in range(nb):
+        start = b * n // nb
+        for i in range(counts[b]):
+            front[m] = front[start + i]
+            m += 1
+    return m
 
 
 @njit(cache=True, nogil=True)
