@@ -112,16 +112,29 @@ def life_step(graph: CellGraph, alive: np.ndarray, lut: np.ndarray, out: np.ndar
 
 
 class LifeRun:
-    """The ``ca.life`` rule's state on the compiled path: double buffers made once in setup, and
-    one fused kernel per step (count, rule table, presence, optional birth draw, ever-alive and
-    age), in parallel over the cells: each cell's update reads only the previous buffers, so
-    the result does not depend on the thread count.  ``alive``, ``ever`` and ``age`` are the
-    current arrays (``alive`` is a view of one of two buffers, swapped every step; ``ever``
-    and ``age`` are updated in place)."""
+    """The ``ca.life`` rule's state on the compiled path: buffers made once in setup, and per
+    step either the dense fused kernel (count, rule table, presence, optional birth draw,
+    ever-alive and age, in parallel over the cells: each cell's update reads only the previous
+    buffers, so the result does not depend on the thread count) or, once few cells change, the
+    activity-tracking step (:func:`_active_step`).  ``alive``, ``ever`` and ``age`` are the
+    current arrays (``alive`` is a view of the current state buffer; ``ever`` and ``age`` are
+    updated in place).
+
+    Activity tracking, the classic Life optimisation, kept exact for every mode: a cell can
+    change at the next step only if its table outcome T(count, state) & present differs from
+    its state (an *unstable* cell; a birth draw can only hold such a cell back, never make a
+    stable one change).  The active step keeps the live-neighbour counts and the unstable
+    list, evaluates only the unstable cells, flips those that change, updates the counts of
+    the cells listing them (the transposed graph) and re-tests the touched cells; ever/age
+    remain one dense (cheap, streaming) pass.  It runs while the unstable share is below
+    ``ACTIVE_SHARE``; above it the dense kernel runs (its whole-domain pass costs less)."""
+
+    ACTIVE_SHARE = 0.1
 
     def __init__(self, graph: CellGraph, present: np.ndarray, lut: np.ndarray, age_mode: str,
                  alive: np.ndarray, ever: np.ndarray, age: np.ndarray) -> None:
         n = graph.n_cells
+        self.graph = graph
         self.nb = neighbours(graph)
         self.rule = table_code(lut)
         present = np.ascontiguousarray(present, bool)
@@ -132,6 +145,10 @@ class LifeRun:
         self.ever = np.array(ever, bool)
         self.age = np.array(age, np.int32)          # updated in place (a cell reads its own age only)
         self.u = np.empty(0)
+        self.active = False                         # on the activity-tracking step
+        self.count = np.zeros(0, np.uint16)         # (active) live neighbours per cell
+        self.unstable = np.zeros(0, np.int64)       # (active) the unstable cells
+        self.share = 1.0                            # cells evaluated by the last step / n
 
     @property
     def alive(self) -> np.ndarray:
@@ -147,10 +164,42 @@ class LifeRun:
         """One generation; ``birth_p``: per-cell birth probability with the draws in
         :meth:`draws` (the numpy path's ``new &= alive | (u < p)``).  True if a cell changed."""
         u = None if birth_p is None else self.u
+        n = self.ever.size
+        if self.active:
+            self.share = self.nunstable / max(n, 1)
+            changed, self.nunstable = _active_step(
+                self.inc.indptr, self.inc_indices, self.buf, self.count, *self.rule, self.present, u,
+                birth_p, self.unstable, self.nunstable, self.flipped, self.mark)
+            _age_pass(self.buf, self.ever.view(np.uint8), self.age, *self.age_rule)
+            if self.nunstable > self.ACTIVE_SHARE * n:
+                self.active = False
+            return changed > 0
+        self.share = 1.0
         changed = self.nb.step(self.buf, self.rule, self.spare, self.present, u, birth_p,
                                self.ever.view(np.uint8), self.age, self.age_rule)
         self.buf, self.spare = self.spare, self.buf
+        if changed <= self.ACTIVE_SHARE * n:
+            self._start_tracking()
         return changed > 0
+
+    def _start_tracking(self) -> None:
+        """Counts and the unstable list from the current state (one dense gather)."""
+        n = self.ever.size
+        if self.count.size != n + 1:
+            self.inc = self.graph.incoming
+            self.inc_indices = compact_indices(self.inc)
+            self.count = np.zeros(n + 1, np.uint16)
+            self.flag = np.zeros(n, np.uint8)
+            self.unstable = np.empty(n, np.int64)
+            self.flipped = np.empty(n, np.int64)
+            self.mark = np.zeros(n, np.uint8)
+        nb = self.nb
+        if nb.table.shape[1]:
+            _count_rows(nb.table, self.buf, *self.rule, self.present, self.count, self.flag)
+        else:
+            _count_csr(nb.indptr, nb.indices, self.buf, *self.rule, self.present, self.count, self.flag)
+        self.nunstable = _compact(self.flag, self.unstable)
+        self.active = self.nunstable <= self.ACTIVE_SHARE * n
 
 
 # Two loops (fixed rows or CSR) around one inlined cell update: each cell writes only its own
@@ -326,3 +375,95 @@ def _pick(indptr, indices, bptr, bidx, labels, st, front, ok, keys, buf):
             buf[m] = t
             m += 1
     return nnew, m
+
+
+# --------------------------------------------------------------------------------------------
+# activity tracking (LifeRun)
+
+@njit(cache=True, nogil=True, inline="always")
+def _outcome(c, k, ac, code, cap, present):
+    """T(count, state) & present of cell c (before any birth draw)."""
+    v = (code >> (2 * min(k, cap) + ac)) & 1
+    if present is not None:
+        v &= np.int64(present[c])
+    return v
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _count_rows(table, a, code, cap, present, count, flag):
+    for c in prange(table.shape[0]):
+        k = 0
+        for s in range(table.shape[1]):
+            k += a[table[c, s]]
+        count[c] = k
+        flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _count_csr(indptr, indices, a, code, cap, present, count, flag):
+    for c in prange(indptr.size - 1):
+        k = 0
+        for e in range(indptr[c], indptr[c + 1]):
+            k += a[indices[e]]
+        count[c] = k
+        flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+
+
+@njit(cache=True, nogil=True)
+def _compact(flag, out):
+    m = 0
+    for c in range(flag.size):
+        if flag[c]:
+            out[m] = c
+            m += 1
+    return m
+
+
+@njit(cache=True, nogil=True)
+def _active_step(inc_ptr, inc_idx, a, count, code, cap, present, u, p, unstable, nu, flipped, mark):
+    """One synchronous step over the unstable cells only (see :class:`LifeRun`): every new
+    state from the old states and counts, then the flips, the count updates of the cells
+    listing a flipped cell, and the new unstable list (the old one and the touched cells,
+    re-tested).  Returns (cells changed, unstable cells)."""
+    nf = 0
+    for i in range(nu):
+        c = unstable[i]
+        ac = np.int64(a[c])
+        v = _outcome(c, np.int64(count[c]), ac, code, cap, present)
+        if u is not None:
+            v &= ac | np.int64(u[c] < p[c])
+        if v != ac:
+            flipped[nf] = c
+            nf += 1
+    for i in range(nu):                      # the re-test list: old unstable cells ...
+        mark[unstable[i]] = 1
+    m = nu
+    for i in range(nf):
+        c = flipped[i]
+        a[c] ^= 1
+        d = 1 if a[c] else -1
+        for e in range(inc_ptr[c], inc_ptr[c + 1]):
+            t = inc_idx[e]
+            count[t] += d
+            if not mark[t]:                   # ... and the cells whose count changed
+                mark[t] = 1
+                unstable[m] = t
+                m += 1
+    nu2 = 0
+    for i in range(m):
+        c = unstable[i]
+        mark[c] = 0
+        if _outcome(c, np.int64(count[c]), np.int64(a[c]), code, cap, present) != a[c]:
+            unstable[nu2] = c
+            nu2 += 1
+    return nf, nu2
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _age_pass(a, ever, age, i_alive, i_one, i_ever, reset):
+    """ever |= state and the age update of :func:`_step_cell`, over every cell."""
+    for c in prange(ever.size):
+        v = np.int64(a[c])
+        ev = np.int64(ever[c]) | v
+        ever[c] = ev
+        age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
