@@ -11,9 +11,17 @@ targets, one per attack for the noise), the Efraimidis-Spirakis keys log(u)/w an
 (largest first, ties in entry order) are the numpy path's, and every float expression keeps its
 order (tests/test_corrode_kernels.py compares whole runs).  Buffers live on the graph and are
 reused: a step allocates nothing proportional to the domain (``attacks``/``valid_neighbours``
-of the state are zeroed in place instead of replaced).  The per-cell passes (open cells,
-thinning) run in parallel over numba's threads; each cell writes only its own slots, so the
-result does not depend on the thread count.
+of the state are zeroed in place, at the last front's cells, the only non-zero ones, instead
+of replaced).
+
+Parallel and deterministic: every pass runs over numba's threads with each cell, front row or
+attack writing only its own slots, and every list keeps the numpy path's order: the front is
+listed per chunk of cells into the chunk's own slice and joined in chunk order; the target
+choice runs per front row, and the attack list is laid out by a prefix sum of the per-row
+counts (front row, then entry order); attacks are judged in parallel (each reads the state at
+the start of the step) and marked serially.  So the result does not depend on the thread
+count.  Thinning (step 4) runs in the first pass, before the attacks: it touches only cells
+corroded at the start, never open ones, and the attacks read a front cell's age as age - 1.
 """
 from __future__ import annotations
 

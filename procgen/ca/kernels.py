@@ -4,12 +4,14 @@ Why: the numpy steps gather through a sparse product (life) or build entry lists
 unions per step (Voronoi frontier), i.e. a few temporaries per cell per step; a compiled loop
 reads each neighbour once, through int32 ids, and writes in place.  The life step gathers
 through fixed-length rows where the degrees allow (:class:`Neighbours`) and the ``ca.life`` rule
-runs one fused kernel per step (:class:`LifeRun`), in parallel over numba's threads; the Voronoi
-step keeps one byte per cell for its neighbour tests.  Imported only through
+runs one fused kernel per step (:class:`LifeRun`), in parallel over numba's threads, or, once
+few cells change, an activity-tracking step that evaluates only the cells that can change;
+the Voronoi step keeps one byte per cell for its neighbour tests.  Imported only through
 :func:`procgen.accel.kernels` (this module needs numba).
 
 Same results, exactly: the life step is integer counting, each cell from the previous state
-only (so any thread count gives the same cells); the Voronoi step draws the same random numbers
+only (so any thread count gives the same cells; the tracking step skips only cells whose
+outcome is provably their state); the Voronoi step draws the same random numbers
 from the same Generator in the same order as ``VoronoiGrowth.step`` (one per frontier entry,
 then one per candidate entry, both in frontier order) and applies the same choice (smallest key
 per row, first on ties), so labels and frontier are identical (tests/test_ca_kernels.py).
