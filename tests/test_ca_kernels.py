@@ -125,7 +125,7 @@ LIFE_MODES = [
 
 
 @pytest.mark.parametrize("params", LIFE_MODES)
-@pytest.mark.parametrize("share", [1.0, 0.1])
+@pytest.mark.parametrize("share", [1.0, 0.02])
 def test_activity_tracking_equals_dense_numpy_every_step(params, share, monkeypatch):
     """The activity-tracking step (from the first step on, or switched on by the default
     share) gives the numpy path's state, age and changed flag on every one of 120 steps,
