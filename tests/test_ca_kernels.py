@@ -66,9 +66,18 @@ def test_compiled_voronoi_equals_numpy_voronoi(name, p_diagonal):
     assert r1.random() == r2.random()               # and drew the same numbers
 
 
-def _life_rule_run(accelerate: str, monkeypatch, params: dict, steps: int = 25) -> list[tuple]:
-    """ca.life on a 40 x 60 grid with holes; the fields after every step."""
+def _life_rule_run(accelerate: str, monkeypatch, params: dict, steps: int = 25, active_share: float | None = None,
+                   threads: int | None = None) -> list[tuple]:
+    """ca.life on a 40 x 60 grid with holes; the fields after every step.  ``active_share``:
+    the compiled run's switch to activity tracking (1.0: from the first step on)."""
     monkeypatch.setenv("PROCGEN_ACCELERATE", accelerate)
+    if accelerate == "1":
+        import numba
+        from procgen.ca.kernels import LifeRun
+        if active_share is not None:
+            monkeypatch.setattr(LifeRun, "ACTIVE_SHARE", active_share)
+        if threads is not None:                      # (set back to all threads below)
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     rng = np.random.default_rng(2)
     dom = Grid((40, 60))
     dom.add_field("cell__alive", rng.random((40, 60)) > 0.05, at="cell")
@@ -84,6 +93,11 @@ def _life_rule_run(accelerate: str, monkeypatch, params: dict, steps: int = 25) 
         st.iteration = k
         changed = rule.step(st)
         out.append((changed, np.array(dom["ca__alive"]), np.array(dom["ca__age"])))
+    if accelerate == "1":
+        out.append(rule._run.active)
+        if threads is not None:
+            import numba
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     return out
 
 
@@ -95,9 +109,44 @@ def _life_rule_run(accelerate: str, monkeypatch, params: dict, steps: int = 25) 
 def test_compiled_life_rule_equals_numpy_rule(params, monkeypatch):
     """The fused compiled step (state, presence, birth draws, ever-alive, age, changed flag)."""
     ref = _life_rule_run("0", monkeypatch, params)
-    fast = _life_rule_run("1", monkeypatch, params)
+    fast = _life_rule_run("1", monkeypatch, params)[:-1]
     for k, ((c1, a1, g1), (c2, a2, g2)) in enumerate(zip(ref, fast)):
         assert c1 == c2, k
         np.testing.assert_array_equal(a2, a1, err_msg=f"state at step {k}")
         np.testing.assert_array_equal(g2, g1, err_msg=f"age at step {k}")
     assert any(c for c, _, _ in ref) and ref[-1][2].max() > 3
+
+
+LIFE_MODES = [
+    {"rule": "B3/S23", "age_mode": "cumulative", "initial_age": 3, "density": 0.3},
+    {"rule": "25/357", "semantics": "table", "age_mode": "consecutive", "birth_field": "exposure__birth"},
+    {"rule": "B36/S23", "age_mode": "since_first", "birth_field": "exposure__birth", "density": 0.2},
+    {"rule": "B1/S012", "age_mode": "consecutive", "neighbourhood": "von_neumann", "density": 0.1}]
+
+
+@pytest.mark.parametrize("params", LIFE_MODES)
+@pytest.mark.parametrize("share", [1.0, 0.02])
+def test_activity_tracking_equals_dense_numpy_every_step(params, share, monkeypatch):
+    """The activity-tracking step (from the first step on, or switched on by the default
+    share) gives the numpy path's state, age and changed flag on every one of 120 steps,
+    birth draws included."""
+    ref = _life_rule_run("0", monkeypatch, params, steps=120)
+    fast = _life_rule_run("1", monkeypatch, params, steps=120, active_share=share)
+    assert fast.pop() is True                        # the run ended on the tracking step
+    for k, ((c1, a1, g1), (c2, a2, g2)) in enumerate(zip(ref, fast)):
+        assert c1 == c2, k
+        np.testing.assert_array_equal(a2, a1, err_msg=f"state at step {k}")
+        np.testing.assert_array_equal(g2, g1, err_msg=f"age at step {k}")
+    assert sum(c for c, _, _ in ref[1:]) >= 5          # tracked steps that changed cells
+
+
+@pytest.mark.parametrize("params", LIFE_MODES[:2])
+def test_compiled_life_rule_same_on_one_and_two_threads(params, monkeypatch):
+    """The dense parallel step gives the same cells on one thread and on two."""
+    one = _life_rule_run("1", monkeypatch, params, active_share=0.0, threads=1)
+    two = _life_rule_run("1", monkeypatch, params, active_share=0.0, threads=2)
+    assert one.pop() is False and two.pop() is False
+    for (c1, a1, g1), (c2, a2, g2) in zip(one, two):
+        assert c1 == c2
+        np.testing.assert_array_equal(a2, a1)
+        np.testing.assert_array_equal(g2, g1)

@@ -42,3 +42,25 @@ def test_compiled_corrosion_equals_numpy_corrosion(variant):
         np.testing.assert_array_equal(ob.seed_cells, oa.seed_cells)
         seen += oa.attacks
     assert seen > 1000 and np.sum(a.status == cz.HOLE) > 0 and a.seeds_used > 0
+
+
+def test_compiled_corrosion_same_on_one_and_two_threads():
+    """The parallel passes (front lists, target choice, attacks) give the same run on one
+    thread and on two (every list in the numpy path's order)."""
+    import numba
+    g = grid_graph(45, 60)
+    prm = Corrode(k1=0.03, k2=0.05, k3=0.3, seed_rate=1e-3, max_seeds=30, b0=1.0, noise=0.8)
+    w = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
+    runs = []
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            st = fresh_state(g.n_cells, np.random.default_rng(3), metal=0.5, layers=2)
+            for it in range(120):
+                cz.corrosion_step(g, st, prm, np.random.default_rng(it), weights=w, accelerate=True)
+            runs.append(st)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    for f in FIELDS:
+        np.testing.assert_array_equal(getattr(runs[1], f), getattr(runs[0], f), err_msg=f)
+    assert np.sum(runs[0].status == cz.HOLE) > 0

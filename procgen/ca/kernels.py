@@ -4,12 +4,14 @@ Why: the numpy steps gather through a sparse product (life) or build entry lists
 unions per step (Voronoi frontier), i.e. a few temporaries per cell per step; a compiled loop
 reads each neighbour once, through int32 ids, and writes in place.  The life step gathers
 through fixed-length rows where the degrees allow (:class:`Neighbours`) and the ``ca.life`` rule
-runs one fused kernel per step (:class:`LifeRun`), in parallel over numba's threads; the Voronoi
-step keeps one byte per cell for its neighbour tests.  Imported only through
+runs one fused kernel per step (:class:`LifeRun`), in parallel over numba's threads, or, once
+few cells change, an activity-tracking step that evaluates only the cells that can change;
+the Voronoi step keeps one byte per cell for its neighbour tests.  Imported only through
 :func:`procgen.accel.kernels` (this module needs numba).
 
 Same results, exactly: the life step is integer counting, each cell from the previous state
-only (so any thread count gives the same cells); the Voronoi step draws the same random numbers
+only (so any thread count gives the same cells; the tracking step skips only cells whose
+outcome is provably their state); the Voronoi step draws the same random numbers
 from the same Generator in the same order as ``VoronoiGrowth.step`` (one per frontier entry,
 then one per candidate entry, both in frontier order) and applies the same choice (smallest key
 per row, first on ties), so labels and frontier are identical (tests/test_ca_kernels.py).
@@ -22,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..errors import InputError
 from .graph import CellGraph
 
 _ATTR = "_ca_kernel_work"
@@ -44,8 +47,8 @@ class Neighbours:
     """The gather layout of one graph: an (n, K) int32 table (K = the largest degree) when the
     degrees are about equal (lattices, surface cells: every row is a fixed-length loop the
     compiler unrolls, about twice as fast as the CSR loop with its row bounds), else CSR.
-    A short row is padded with the cell's own id; ``pad`` counts those slots, so a count is
-    the padded sum minus pad * own state."""
+    A short row is padded with the id n: the state buffers have one more slot, always 0 (a
+    sentinel), so a padded row sums to the count with no correction per cell."""
 
     def __init__(self, graph: CellGraph) -> None:
         n, nnz = graph.n_cells, graph.indices.size
@@ -53,11 +56,21 @@ class Neighbours:
         k = int(deg.max(initial=0))
         self.indptr, self.indices = graph.indptr, compact_indices(graph)
         self.table = np.zeros((0, 0), self.indices.dtype)
-        self.pad = np.zeros(0, np.uint8)
         if n and k <= 255 and n * k <= 1.25 * nnz + n:         # at most ~25 % padding
-            table = np.repeat(np.arange(n, dtype=self.indices.dtype)[:, None], k, axis=1)
+            table = np.full((n, k), n, self.indices.dtype)
             table[graph.rows, np.arange(nnz) - graph.indptr[graph.rows]] = self.indices
-            self.table, self.pad = table, (k - deg).astype(np.uint8)
+            self.table = table
+        self.scratch = np.zeros(n + 1, np.uint8)                # life_step's state + sentinel
+
+    def step(self, a: np.ndarray, rule: tuple[int, int], out: np.ndarray, present=None, u=None,
+             p=None, ever=None, age=None, age_rule: tuple[int, int, int, int] = (0, 0, 0, 0)) -> int:
+        """One fused step (:func:`_step_cell`) from ``a`` (n + 1 uint8, a[n] = 0) into ``out``
+        with the rule ``(code, cap)`` of :func:`table_code`; returns the number of cells whose
+        state changed."""
+        args = (a, *rule, present, u, p, out, ever, age, *age_rule)
+        if self.table.shape[1]:
+            return _rule_rows(self.table, *args)
+        return _rule_csr(self.indptr, self.indices, *args)
 
 
 def neighbours(graph: CellGraph) -> Neighbours:
@@ -68,9 +81,25 @@ def neighbours(graph: CellGraph) -> Neighbours:
     return nb
 
 
-def flat_lut(lut: np.ndarray) -> np.ndarray:
-    """A (N + 1, 2) bool table as uint8 indexed 2 * N + C."""
-    return np.ascontiguousarray(lut, bool).view(np.uint8).reshape(-1)
+def table_code(lut: np.ndarray) -> tuple[int, int]:
+    """A (N + 1, 2) bool table T[count, state] as (code, cap): the bits T[min(k, cap), s] at
+    2 * min(k, cap) + s of one integer, where rows cap.. are all equal (the numpy path caps the
+    count at N, so every count from the first row of the table's constant tail reads the same
+    row).  A shift replaces the table load in the cell loop; up to 31 distinct rows."""
+    t = np.ascontiguousarray(lut, bool)
+    cap = len(t) - 1
+    while cap > 0 and np.array_equal(t[cap - 1], t[cap]):
+        cap -= 1
+    if cap > 30:
+        raise InputError(f"a compiled life table has at most 31 distinct count rows, got {cap + 1}")
+    bits = t[: cap + 1].reshape(-1)
+    return int(np.sum(bits.astype(np.int64) << np.arange(bits.size, dtype=np.int64))), cap
+
+
+AGE_RULES = {"cumulative": (1, 0, 0, 0), "consecutive": (0, 1, 0, 1), "since_first": (0, 0, 1, 0)}
+"""Per age mode (inc_alive, inc_one, inc_ever, reset_dead): age = (age + inc_alive * v + inc_one
++ inc_ever * ever) * (1 - reset_dead * (1 - v)), the three ``lifelike.next_age`` readings in one
+branch-free expression (no mode test per cell)."""
 
 
 def life_step(graph: CellGraph, alive: np.ndarray, lut: np.ndarray, out: np.ndarray | None = None
@@ -79,127 +108,146 @@ def life_step(graph: CellGraph, alive: np.ndarray, lut: np.ndarray, out: np.ndar
     if out is None:
         out = np.empty(graph.n_cells, bool)
     nb = neighbours(graph)
-    a = np.ascontiguousarray(alive, bool).view(np.uint8)
-    if nb.table.shape[1]:
-        _life_rows(nb.table, nb.pad, a, flat_lut(lut), out.view(np.uint8))
-    else:
-        _life_csr(nb.indptr, nb.indices, a, flat_lut(lut), out.view(np.uint8))
+    nb.scratch[:-1] = np.asarray(alive, bool).view(np.uint8)
+    nb.step(nb.scratch, table_code(lut), out.view(np.uint8))
     return out
 
 
-AGE_CODES = {"cumulative": 0, "consecutive": 1, "since_first": 2}
-
-
 class LifeRun:
-    """The ``ca.life`` rule's state on the compiled path: double buffers made once in setup, and
-    one fused kernel per step (count, rule table, presence, optional birth draw, ever-alive and
-    age), in parallel over the cells: each cell's update reads only the previous buffers, so
-    the result does not depend on the thread count.  ``alive``, ``ever`` and ``age`` are the
-    current arrays (``alive`` swaps with its spare buffer every step; ``ever`` and ``age`` are
-    updated in place)."""
+    """The ``ca.life`` rule's state on the compiled path: buffers made once in setup, and per
+    step either the dense fused kernel (count, rule table, presence, optional birth draw,
+    ever-alive and age, in parallel over the cells: each cell's update reads only the previous
+    buffers, so the result does not depend on the thread count) or, once few cells change, the
+    activity-tracking step (:func:`_active_step`).  ``alive``, ``ever`` and ``age`` are the
+    current arrays (``alive`` is a view of the current state buffer; ``ever`` and ``age`` are
+    updated in place).
+
+    Activity tracking, the classic Life optimisation, kept exact for every mode: a cell can
+    change at the next step only if its table outcome T(count, state) & present differs from
+    its state (an *unstable* cell; a birth draw can only hold such a cell back, never make a
+    stable one change).  The active step keeps the live-neighbour counts and the unstable
+    list, evaluates only the unstable cells, flips those that change, updates the counts of
+    the cells listing them (the transposed graph) and re-tests the touched cells; ever/age
+    remain one dense (cheap, streaming) pass.  It starts after a dense step that changed at most
+    ``ACTIVE_SHARE`` of the cells and runs while the unstable share stays below twice that;
+    above it the dense kernel runs: a flip touches every cell listing it, serially and at
+    random places, so tracking pays only while a few percent of the cells change (25/357 at
+    7.6 % unstable cells per step: the tracking step costs more than the dense one)."""
+
+    ACTIVE_SHARE = 0.02
 
     def __init__(self, graph: CellGraph, present: np.ndarray, lut: np.ndarray, age_mode: str,
                  alive: np.ndarray, ever: np.ndarray, age: np.ndarray) -> None:
         n = graph.n_cells
         self.nb = neighbours(graph)
-        self.lut = flat_lut(lut)
-        self.present = np.ascontiguousarray(present, bool).view(np.uint8)
-        self.mode = AGE_CODES[age_mode]
-        self.alive, self.spare = np.array(alive, bool), np.empty(n, bool)
+        self.rule = table_code(lut)
+        present = np.ascontiguousarray(present, bool)
+        self.present = None if present.all() else present.view(np.uint8)
+        self.age_rule = AGE_RULES[age_mode]
+        self.buf, self.spare = np.zeros(n + 1, np.uint8), np.zeros(n + 1, np.uint8)   # [n]: sentinel 0
+        self.buf[:n] = np.asarray(alive, bool)
         self.ever = np.array(ever, bool)
         self.age = np.array(age, np.int32)          # updated in place (a cell reads its own age only)
         self.u = np.empty(0)
+        self.active = False                         # on the activity-tracking step
+        self.share = 1.0                            # cells evaluated by the last step / n
+        self.inc = graph.incoming                   # the cells listing each cell
+        self.inc_indices = compact_indices(self.inc)
+        self.count = np.zeros(n, np.uint16)         # (tracking) live neighbours per cell
+        self.flag = np.zeros(n, np.uint8)
+        self.unstable = np.empty(n, np.int64)       # (tracking) the unstable cells, then the touched
+        self.nunstable = 0
+        self.flipped = np.empty(n, np.int64)
+        self.mark = np.zeros(n, np.uint8)
+
+    @property
+    def alive(self) -> np.ndarray:
+        return self.buf[:-1].view(bool)
 
     def draws(self) -> np.ndarray:
         """The buffer the birth draws go to (one uniform per cell)."""
-        if self.u.size != self.alive.size:
-            self.u = np.empty(self.alive.size)
+        if self.u.size != self.ever.size:
+            self.u = np.empty(self.ever.size)
         return self.u
 
     def step(self, birth_p: np.ndarray | None = None) -> bool:
         """One generation; ``birth_p``: per-cell birth probability with the draws in
         :meth:`draws` (the numpy path's ``new &= alive | (u < p)``).  True if a cell changed."""
-        nb = self.nb
-        u, p = (self.u, birth_p) if birth_p is not None else (np.zeros(0), np.zeros(0))
-        args = (self.alive.view(np.uint8), self.lut, self.present, u, p, self.spare.view(np.uint8),
-                self.ever.view(np.uint8), self.age, self.mode)
-        if nb.table.shape[1]:
-            changed = _rule_rows(nb.table, nb.pad, *args)
-        else:
-            changed = _rule_csr(nb.indptr, nb.indices, *args)
-        self.alive, self.spare = self.spare, self.alive
+        u = None if birth_p is None else self.u
+        n = self.ever.size
+        if self.active:
+            self.share = self.nunstable / max(n, 1)
+            changed, self.nunstable = _active_step(
+                self.inc.indptr, self.inc_indices, self.buf, self.count, *self.rule, self.present, u,
+                birth_p, self.unstable, self.nunstable, self.flipped, self.mark)
+            _age_pass(self.buf, self.ever.view(np.uint8), self.age, *self.age_rule)
+            if self.nunstable > 2 * self.ACTIVE_SHARE * n:     # (hysteresis: no switching to and fro)
+                self.active = False
+            return changed > 0
+        self.share = 1.0
+        changed = self.nb.step(self.buf, self.rule, self.spare, self.present, u, birth_p,
+                               self.ever.view(np.uint8), self.age, self.age_rule)
+        self.buf, self.spare = self.spare, self.buf
+        if changed <= self.ACTIVE_SHARE * n:
+            self._start_tracking()
         return changed > 0
 
-
-# Four loops (fixed rows or CSR, bare step or the whole rule) around two inlined pieces: the
-# compiler sees no layout or mode test per cell it cannot hoist.  Each cell writes only its own
-# slots and reads only the previous state, so the parallel loops give the serial result.
-
-@njit(cache=True, nogil=True, parallel=True)
-def _life_rows(table, pad, a, lut, out):
-    top = lut.size // 2 - 1
-    for c in prange(out.size):
-        ac = np.int64(a[c])
-        k = np.int64(0)
-        for s in range(table.shape[1]):
-            k += a[table[c, s]]
-        out[c] = lut[2 * min(k - pad[c] * ac, top) + ac]
+    def _start_tracking(self) -> None:
+        """Counts and the unstable list from the current state (one dense gather)."""
+        n = self.ever.size
+        nb = self.nb
+        if nb.table.shape[1]:
+            _count_rows(nb.table, self.buf, *self.rule, self.present, self.count, self.flag)
+        else:
+            _count_csr(nb.indptr, nb.indices, self.buf, *self.rule, self.present, self.count, self.flag)
+        self.nunstable = _compact(self.flag, self.unstable)
+        self.active = self.nunstable <= self.ACTIVE_SHARE * n
 
 
-@njit(cache=True, nogil=True, parallel=True)
-def _life_csr(indptr, indices, a, lut, out):
-    top = lut.size // 2 - 1
-    for c in prange(out.size):
-        k = np.int64(0)
-        for e in range(indptr[c], indptr[c + 1]):
-            k += a[indices[e]]
-        out[c] = lut[2 * min(k, top) + a[c]]
-
+# Two loops (fixed rows or CSR) around one inlined cell update: each cell writes only its own
+# slots and reads only the previous state, so the parallel loops give the serial result.  The
+# optional parts (presence, birth draws, ever/age) are None when off: numba compiles one
+# version per combination with the part removed, so no cell pays a test or a read for it.
 
 @njit(cache=True, nogil=True, inline="always")
-def _rule_cell(c, k, ac, lut, present, u, p, out, ever, age, mode):
-    """The rule's update of cell c from its live-neighbour count k (capped) and state ac:
-    table, presence, birth draw, ever-alive, age (cumulative 0, consecutive 1, since_first 2).
-    Returns 1 when the state changed."""
-    v = np.int64(lut[2 * k + ac]) & np.int64(present[c])
-    if u.size and v == 1 and ac == 0 and not (u[c] < p[c]):
-        v = np.int64(0)
-    ev = np.int64(ever[c]) | v
-    ever[c] = ev
-    if mode == 0:
-        age[c] += v
-    elif mode == 1:
-        age[c] = age[c] + 1 if v else 0
-    else:
-        age[c] += ev
+def _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
+    """Cell c's next state from its live-neighbour count k: table bit 2k + state of ``code``,
+    presence, birth draw (a birth happens only where u < p), ever-alive and age; a part given
+    as None is compiled out.  Returns 1 when the state changed."""
+    ac = np.int64(a[c])
+    v = (code >> (2 * min(k, cap) + ac)) & 1
+    if present is not None:
+        v &= np.int64(present[c])
+    if u is not None:
+        v &= ac | np.int64(u[c] < p[c])
+    if ever is not None:
+        ev = np.int64(ever[c]) | v
+        ever[c] = ev
+        age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
     out[c] = v
-    return np.int64(v != ac)
+    return v ^ ac
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _rule_rows(table, pad, a, lut, present, u, p, out, ever, age, mode):
-    top = lut.size // 2 - 1
+def _rule_rows(table, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
     changed = 0
-    for c in prange(out.size):
-        ac = np.int64(a[c])
-        k = np.int64(0)
+    for c in prange(table.shape[0]):
+        k = 0
         for s in range(table.shape[1]):
             k += a[table[c, s]]
-        changed += _rule_cell(c, min(k - pad[c] * ac, top), ac, lut, present, u, p, out, ever, age, mode)
+        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset)
     return changed
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _rule_csr(indptr, indices, a, lut, present, u, p, out, ever, age, mode):
-    top = lut.size // 2 - 1
+def _rule_csr(indptr, indices, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
     changed = 0
-    for c in prange(out.size):
-        k = np.int64(0)
+    for c in prange(indptr.size - 1):
+        k = 0
         for e in range(indptr[c], indptr[c + 1]):
             k += a[indices[e]]
-        changed += _rule_cell(c, min(k, top), np.int64(a[c]), lut, present, u, p, out, ever, age, mode)
+        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset)
     return changed
-
 
 # --------------------------------------------------------------------------------------------
 # Voronoi propagation
@@ -329,3 +377,95 @@ def _pick(indptr, indices, bptr, bidx, labels, st, front, ok, keys, buf):
             buf[m] = t
             m += 1
     return nnew, m
+
+
+# --------------------------------------------------------------------------------------------
+# activity tracking (LifeRun)
+
+@njit(cache=True, nogil=True, inline="always")
+def _outcome(c, k, ac, code, cap, present):
+    """T(count, state) & present of cell c (before any birth draw)."""
+    v = (code >> (2 * min(k, cap) + ac)) & 1
+    if present is not None:
+        v &= np.int64(present[c])
+    return v
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _count_rows(table, a, code, cap, present, count, flag):
+    for c in prange(table.shape[0]):
+        k = 0
+        for s in range(table.shape[1]):
+            k += a[table[c, s]]
+        count[c] = k
+        flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _count_csr(indptr, indices, a, code, cap, present, count, flag):
+    for c in prange(indptr.size - 1):
+        k = 0
+        for e in range(indptr[c], indptr[c + 1]):
+            k += a[indices[e]]
+        count[c] = k
+        flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+
+
+@njit(cache=True, nogil=True)
+def _compact(flag, out):
+    m = 0
+    for c in range(flag.size):
+        if flag[c]:
+            out[m] = c
+            m += 1
+    return m
+
+
+@njit(cache=True, nogil=True)
+def _active_step(inc_ptr, inc_idx, a, count, code, cap, present, u, p, unstable, nu, flipped, mark):
+    """One synchronous step over the unstable cells only (see :class:`LifeRun`): every new
+    state from the old states and counts, then the flips, the count updates of the cells
+    listing a flipped cell, and the new unstable list (the old one and the touched cells,
+    re-tested).  Returns (cells changed, unstable cells)."""
+    nf = 0
+    for i in range(nu):
+        c = unstable[i]
+        ac = np.int64(a[c])
+        v = _outcome(c, np.int64(count[c]), ac, code, cap, present)
+        if u is not None:
+            v &= ac | np.int64(u[c] < p[c])
+        if v != ac:
+            flipped[nf] = c
+            nf += 1
+    for i in range(nu):                      # the re-test list: old unstable cells ...
+        mark[unstable[i]] = 1
+    m = nu
+    for i in range(nf):
+        c = flipped[i]
+        a[c] ^= 1
+        d = 1 if a[c] else -1
+        for e in range(inc_ptr[c], inc_ptr[c + 1]):
+            t = inc_idx[e]
+            count[t] += d
+            if not mark[t]:                   # ... and the cells whose count changed
+                mark[t] = 1
+                unstable[m] = t
+                m += 1
+    nu2 = 0
+    for i in range(m):
+        c = unstable[i]
+        mark[c] = 0
+        if _outcome(c, np.int64(count[c]), np.int64(a[c]), code, cap, present) != a[c]:
+            unstable[nu2] = c
+            nu2 += 1
+    return nf, nu2
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _age_pass(a, ever, age, i_alive, i_one, i_ever, reset):
+    """ever |= state and the age update of :func:`_step_cell`, over every cell."""
+    for c in prange(ever.size):
+        v = np.int64(a[c])
+        ev = np.int64(ever[c]) | v
+        ever[c] = ev
+        age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
