@@ -17,7 +17,8 @@ Threads: the kernels that update every cell independently run in parallel over n
 threads (``NUMBA_NUM_THREADS``, default all cores; the result does not depend on the count).
 On a shared or oversubscribed machine, busy-waiting OpenMP threads steal the time of the
 others, so unless the user set it, ``OMP_WAIT_POLICY`` is made ``PASSIVE`` (idle threads
-sleep) before the first kernel module loads.
+sleep) before the first kernel module loads, and local worker pools (gallery, sweep) give each
+worker process an equal share of the cores (:func:`share_cores`).
 """
 from __future__ import annotations
 
@@ -57,6 +58,17 @@ def kernels(module: str, accelerate: bool | None = None, work: int = 0, min_work
         raise InputError(f"accelerate = true needs numba (the 'fast' extra: pip install "
                          f"'procgen-rules[fast]'), which is not installed ({module})")
     return mod
+
+
+def share_cores(processes: int) -> None:
+    """Run in each of ``processes`` local worker processes before any kernel loads: numba's
+    threads default to that worker's share of the cores (the user's ``NUMBA_NUM_THREADS`` wins).
+
+    A parallel region waits for its slowest thread, so workers that each start a thread per core
+    oversubscribe the machine and stall one another; an equal share keeps every core busy once.
+    """
+    share = max(1, (os.cpu_count() or 1) // max(1, processes))
+    os.environ.setdefault("NUMBA_NUM_THREADS", str(share))
 
 
 @functools.cache

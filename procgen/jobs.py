@@ -34,6 +34,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .accel import share_cores
 from .errors import ProcgenError, RecipeError
 from .exchange import write
 
@@ -196,7 +197,8 @@ def _executor(processes: int, scheduler: Any) -> tuple[cf.Executor | None, Calla
     if scheduler is None:
         if processes <= 1:
             return None, lambda: 1, lambda: None
-        pool = cf.ProcessPoolExecutor(max_workers=processes)
+        pool = cf.ProcessPoolExecutor(max_workers=processes, initializer=share_cores,
+                                      initargs=(processes,))
         return pool, lambda: 2 * processes, lambda: pool.shutdown(cancel_futures=True)
     try:
         from dask.distributed import Client

@@ -55,3 +55,18 @@ def test_worker_with_other_package_versions_refuses_the_job(host, tmp_path):
     assert out.result.status == "failed" and not out.files
     assert f"procgen-rules: worker {mine}, client 0.0.0" in out.result.error
     assert compute_job(job, host).result.status == "done"
+
+
+@pytest.mark.parametrize("processes", [2, 3])
+def test_local_workers_share_the_cores_between_their_numba_threads(processes):
+    """Each local worker gets cores // processes numba threads (at least 1), unless the user chose."""
+    import os
+
+    from procgen.jobs import _executor
+    pool, _, close = _executor(processes, None)
+    try:
+        seen = {pool.submit(os.getenv, "NUMBA_NUM_THREADS").result() for _ in range(2 * processes)}
+    finally:
+        close()
+    share = str(max(1, (os.cpu_count() or 1) // processes))
+    assert seen == {os.environ.get("NUMBA_NUM_THREADS", share)}
