@@ -28,12 +28,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+import numba
+from numba import njit, prange
 
 from . import particles as P
 
 _FOOTPRINTS = {"cell": 0, "bilinear": 1, "disc": 2}
 _ATTR = "_drop_kernel_work"
+_MIN_CHUNK = 2048          # drops per thread below which the interaction runs on fewer threads
 
 # a drop's packed rows: floats (64 bytes) and int32s (32 bytes; KIND..AGE are the Drops fields,
 # RANK its index in the caller's arrays, CELL / TOP / OUT per-step scratch)
@@ -48,8 +50,10 @@ class Work:
 
     def __init__(self, ncell: int, n_layers: int) -> None:
         self.sk = np.zeros((ncell * n_layers, 4))
-        self.cell_sk = np.zeros((n_layers, 4))           # the same rows for one cell's keys
-        self.stamps = np.zeros(1)
+        threads = numba.config.NUMBA_NUM_THREADS            # the most a step can use
+        self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
+        self.stamps = np.zeros(threads + 1)                 # phase stamps: sk's, then per thread
+        self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
         self.cap = 0
@@ -122,7 +126,7 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
-              work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
+              work.chunks, min(numba.get_num_threads(), work.chunks.size - 1), _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
@@ -289,10 +293,9 @@ def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched,
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _laid(a, thickness, deposit, sk, kb, dtouched, nd):
-    """particles._deposit's ``thickness += bincount(...) / a`` for the keys laid on."""
-    tf = thickness.reshape(-1)
-    df = deposit.reshape(-1)
+def _laid(a, tf, df, sk, kb, dtouched, nd):
+    """particles._deposit's ``thickness += bincount(...) / a`` for the keys laid on (tf, df: the
+    flat thickness and deposit)."""
     for t in range(nd):
         key = dtouched[t]
         add = sk[key - kb, 3] / a
@@ -325,11 +328,11 @@ def _copy_row(F, I, o, G, J, j):
         J[j, q] = I[o, q]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h):
-    """particles.release_excess and Surface.height in one pass over the grid."""
+    """particles.release_excess and Surface.height in one pass over the grid (cells apart)."""
     L = thickness.shape[1]
-    for c in range(ny * nx):
+    for c in prange(ny * nx):
         wet = False
         for l in range(L):
             if held[c, l] != 0:
@@ -349,17 +352,17 @@ def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, 
         h[c] = hc
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def _move(ny, nx, sp, h, thickness, roughness, F, I, n, gravity, friction, adh_k, max_speed,
           stable_speed, max_age):
-    """particles.move over the packed drops: new position, velocity, speed, dh, the start cell
-    (CELL) and OUT for drops that left the grid; returns how many left."""
+    """particles.move over the packed drops (each on its own): new position, velocity, speed,
+    dh, the start cell (CELL) and OUT for drops that left the grid; returns how many left."""
     L = thickness.shape[1]
     vmax = max_speed * sp
     hi_x = nx * (1 - 1e-12)
     hi_y = ny * (1 - 1e-12)
     nout = 0
-    for i in range(n):
+    for i in prange(n):
         F[i, DH] = 0.0
         I[i, OUT] = 0
         if not I[i, MOV]:
@@ -453,11 +456,11 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
 
 
 @njit(cache=True, nogil=True)
-def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
+def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, n):
-    """particles.interact (and the path count) over the n packed drops, each key's sum in row
+              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n):
+    """particles.interact (and the path count) over the packed drops lo..n-1, each key's sum in row
     key - kb of ``rows``.  With the one-cell footprint the drops come in (cell, drop) order and
     a key hears only its own cell's drops, so the phases run one cell at a time on the few rows
     of ``cell_sk`` (kb = cell * L): no number changes while each cell's data stays in cache.
@@ -465,11 +468,9 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
     grid's rows ``sk`` (kb = 0).  Empty drops are left with volume 0 (the caller drops them)."""
     L = thickness.shape[1]
     a = sp * sp
-    tf = thickness.reshape(-1)
-    hf = held.reshape(-1)
     fc = pkey
     fw = pairs[:, 0]
-    lo = 0
+    pdem = pairs[:, 1]
     while lo < n:
         rows, kb, hi = sk, 0, n
         if mode == 0:
@@ -527,14 +528,13 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
                 if dep > 0:
                     nd = _lay(nx, ny, L, i, dep, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                     F[i, SED] -= dep
-            _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+            _laid(a, tf, df, rows, kb, dtouched, nd)
         # --- erosion by moving drops --------------------------------------------------------------
         stamps[0] += 1.0
         st = stamps[0]
         nt = 0
         kk = 0
         ne = 0
-        pdem = pairs[:, 1]
         for i in range(lo, hi):
             if not ((I[i, MOV] or erode_stabilised) and F[i, VOL] > 0):
                 continue
@@ -581,7 +581,6 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
             # per key: what is removed; then rows[:, 0] = got / total, rows[:, 1] = removed / got,
             # rows[:, 3] = water released per removed volume (reset below)
             nrel = 0
-            df = deposit.reshape(-1)
             for t in range(nt):
                 key = touched[t]
                 tot = rows[key - kb, 0]
@@ -635,7 +634,7 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
                 if extra > 0:
                     nd = _lay(nx, ny, L, i, extra, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                     F[i, SED] -= extra
-            _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+            _laid(a, tf, df, rows, kb, dtouched, nd)
         # --- empty drops lay what they carry ------------------------------------------------------
         nd = 0
         for i in range(lo, hi):
@@ -643,28 +642,31 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
                 s_ = F[i, SED]
                 nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                 F[i, SED] -= s_
-        _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+        _laid(a, tf, df, rows, kb, dtouched, nd)
         lo = hi
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drained_sed, path,
           absorption_rate, capacity, erosion_rate, threshold, roughness, absorbs, erodible,
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, cell_sk, stamps, h, counts, fa, ia, fb, ib, rk, ent, pairs, pkey,
-          touched, dtouched):
+          oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, nt, min_chunk, fa, ia, fb, ib, rk,
+          ent, pairs, pkey, touched, dtouched):
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
     key = rk[:, 0]
     slot = rk[:, 1]
+    tf = thickness.reshape(-1)
+    hf = held.reshape(-1)
+    df = deposit.reshape(-1)
     _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h)
     # --- pack the drops, sorted by start cell -------------------------------------------------
-    for r in range(n0):
+    for r in prange(n0):
         key[r] = _cell_of(pos[r, 0], pos[r, 1], nx, ny) if mode == 0 else 0
     _counting_sort(key, n0, nb, counts, slot)
-    for r in range(n0):
+    for r in prange(n0):
         o = slot[r]
         fa[o, X] = pos[r, 0]
         fa[o, Y] = pos[r, 1]
@@ -682,7 +684,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     if nout:
         _drain(fa, ia, n0, L, sk, stamps, touched, drained, drained_sed)
     # --- repack the drops still on the grid, sorted by end cell then drop index -----------------
-    for o in range(n0):
+    for o in prange(n0):
         r = ia[o, RANK]
         if ia[o, OUT]:
             key[r] = -1
@@ -691,18 +693,33 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
             ia[o, CELL] = c
             key[r] = c if mode == 0 else 0
     n = _counting_sort(key, n0, nb, counts, slot)
-    for o in range(n0):
+    for o in prange(n0):
         if not ia[o, OUT]:
             _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
-    # --- interact ---------------------------------------------------------------------------------
-    _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
-              erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
-              deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, n)
+    # --- interact: with the one-cell footprint in chunks of whole cells, one per thread ----------
+    nt = max(1, min(nt, n // min_chunk)) if mode == 0 else 1
+    chunks[0] = 0
+    for t in range(1, nt):
+        b = max(n * t // nt, chunks[t - 1])
+        while b < n and ib[b, CELL] == ib[b - 1, CELL]:
+            b += 1
+        chunks[t] = b
+    chunks[nt] = n
+    for t in prange(nt):
+        lo = chunks[t]
+        hi = chunks[t + 1]
+        e = hi + 1 if mode == 0 else ent.shape[0]     # scratch of the other footprints: all of it
+        q = hi + 1 if mode == 0 else pairs.shape[0]
+        st = t + 1 if mode == 0 else 0                # sk's stamp, or the thread's own
+        _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
+                  erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
+                  deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
+                  ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
+                  pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi)
     # --- the drops with water back into the caller's arrays, in drop order ----------------------
-    for r in range(n0):
+    for r in prange(n0):
         key[r] = -1
-    for o in range(n):
+    for o in prange(n):
         if fb[o, VOL] > 0:
             key[ib[o, RANK]] = 0
     m = 0
@@ -710,7 +727,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         if key[r] >= 0:
             slot[r] = m
             m += 1
-    for o in range(n):
+    for o in prange(n):
         if fb[o, VOL] > 0:
             j = slot[ib[o, RANK]]
             pos[j, 0] = fb[o, X]
@@ -726,14 +743,14 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     return m
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def _evaporate(ny, nx, sp, h, held, evaporated, evaporation):
-    """particles.evaporate with the start-of-step gradient."""
+    """particles.evaporate with the start-of-step gradient (cells apart)."""
     if evaporation <= 0:
         return
     L = held.shape[1]
     a = sp * sp
-    for c in range(ny * nx):
+    for c in prange(ny * nx):
         wet = False
         for l in range(L):
             if held[c, l] != 0:
