@@ -56,6 +56,8 @@ class Work:
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
+        self.wet = np.empty(ncell, np.int32)                # the cells wet after the release
+        self.wet_n = np.empty(threads, np.int64)            # how many, per thread's chunk
         self.cap = 0
         self.pcap = 0
         self.grow(1024, 1)
@@ -81,7 +83,7 @@ class Work:
 
     @property
     def grid_bytes(self) -> int:
-        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes
+        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes + self.wet.nbytes
 
     @property
     def bytes_per_drop(self) -> int:
@@ -95,8 +97,9 @@ class Work:
 
 
 def bytes_per_cell(n_layers: int) -> int:
-    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots)."""
-    return 32 * n_layers + 12
+    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots,
+    wet-cell list)."""
+    return 32 * n_layers + 16
 
 
 def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
@@ -126,7 +129,8 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
-              work.chunks, min(numba.get_num_threads(), work.chunks.size - 1), _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
+              work.wet, work.wet_n, work.chunks, min(numba.get_num_threads(), work.wet_n.size),
+              _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
@@ -329,27 +333,37 @@ def _copy_row(F, I, o, G, J, j):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h):
-    """particles.release_excess and Surface.height in one pass over the grid (cells apart)."""
+def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h, wet, wet_n):
+    """particles.release_excess and Surface.height in one pass over the grid, in one chunk of
+    cells per entry of ``wet_n`` (cells apart); the cells then holding water are listed, in
+    order, at the start of their chunk's part of ``wet`` (the count in ``wet_n``)."""
     L = thickness.shape[1]
-    for c in prange(ny * nx):
-        wet = False
-        for l in range(L):
-            if held[c, l] != 0:
-                wet = True
-        if wet:
-            tot = 0.0
+    nc = ny * nx
+    nt = wet_n.size
+    for t in prange(nt):
+        k0 = nc * t // nt
+        k = k0
+        for c in range(k0, nc * (t + 1) // nt):
+            wt = False
             for l in range(L):
-                ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
-                if ex > 0:
-                    held[c, l] -= ex
-                    tot += ex
-            if tot > 0:
-                evaporated[c] += tot
-        hc = base[c]
-        for l in range(L):
-            hc += thickness[c, l]
-        h[c] = hc
+                if held[c, l] != 0:
+                    wt = True
+            if wt:
+                tot = 0.0
+                for l in range(L):
+                    ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
+                    if ex > 0:
+                        held[c, l] -= ex
+                        tot += ex
+                if tot > 0:
+                    evaporated[c] += tot
+                wet[k] = c
+                k += 1
+            hc = base[c]
+            for l in range(L):
+                hc += thickness[c, l]
+            h[c] = hc
+        wet_n[t] = k - k0
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -652,8 +666,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, nt, min_chunk, fa, ia, fb, ib, rk,
-          ent, pairs, pkey, touched, dtouched):
+          oy, ox, ow, sk, cell_sk, stamps, h, counts, wet, wet_n, chunks, nth, min_chunk, fa, ia,
+          fb, ib, rk, ent, pairs, pkey, touched, dtouched):
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
     key = rk[:, 0]
@@ -661,7 +675,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     tf = thickness.reshape(-1)
     hf = held.reshape(-1)
     df = deposit.reshape(-1)
-    _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h)
+    _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h, wet,
+                        wet_n[:nth])
     # --- pack the drops, sorted by start cell -------------------------------------------------
     for r in prange(n0):
         key[r] = _cell_of(pos[r, 0], pos[r, 1], nx, ny) if mode == 0 else 0
@@ -683,7 +698,9 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                  max_speed, stable_speed, max_age)
     if nout:
         _drain(fa, ia, n0, L, sk, stamps, touched, drained, drained_sed)
-    # --- repack the drops still on the grid, sorted by end cell then drop index -----------------
+    # --- repack the drops still on the grid, sorted by end cell then drop index (unless no
+    # drop left and none changed cell: then they are in that order already) -------------------
+    changed = 0
     for o in prange(n0):
         r = ia[o, RANK]
         if ia[o, OUT]:
@@ -691,13 +708,21 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         else:
             c = _cell_of(fa[o, X], fa[o, Y], nx, ny)
             ia[o, CELL] = c
-            key[r] = c if mode == 0 else 0
-    n = _counting_sort(key, n0, nb, counts, slot)
-    for o in prange(n0):
-        if not ia[o, OUT]:
-            _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
+            k = c if mode == 0 else 0
+            if k != key[r]:
+                changed += 1
+            key[r] = k
+    n = n0
+    if nout or changed:
+        n = _counting_sort(key, n0, nb, counts, slot)
+        for o in prange(n0):
+            if not ia[o, OUT]:
+                _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
+    else:
+        fb = fa
+        ib = ia
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread ----------
-    nt = max(1, min(nt, n // min_chunk)) if mode == 0 else 1
+    nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
     chunks[0] = 0
     for t in range(1, nt):
         b = max(n * t // nt, chunks[t - 1])
@@ -717,19 +742,24 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                   ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
                   pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi)
     # --- the drops with water back into the caller's arrays, in drop order ----------------------
-    for r in prange(n0):
-        key[r] = -1
-    for o in prange(n):
-        if fb[o, VOL] > 0:
-            key[ib[o, RANK]] = 0
     m = 0
-    for r in range(n0):
-        if key[r] >= 0:
-            slot[r] = m
-            m += 1
     for o in prange(n):
         if fb[o, VOL] > 0:
-            j = slot[ib[o, RANK]]
+            m += 1
+    if m < n0:                                       # some left: the survivors' new indices
+        for r in prange(n0):
+            key[r] = -1
+        for o in prange(n):
+            if fb[o, VOL] > 0:
+                key[ib[o, RANK]] = 0
+        j = 0
+        for r in range(n0):
+            if key[r] >= 0:
+                slot[r] = j
+                j += 1
+    for o in prange(n):
+        if fb[o, VOL] > 0:
+            j = slot[ib[o, RANK]] if m < n0 else ib[o, RANK]
             pos[j, 0] = fb[o, X]
             pos[j, 1] = fb[o, Y]
             vel[j, 0] = fb[o, VX]
@@ -739,30 +769,66 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
             kind[j] = ib[o, KIND]
             moving[j] = ib[o, MOV] != 0
             age[j] = ib[o, AGE]
-    _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
+    if evaporation > 0:
+        if mode == 0:
+            _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n[:nth], ib, n)
+        else:
+            _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
     return m
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation):
+    """particles.evaporate at cell c (a no-op on a dry cell), start-of-step gradient."""
+    L = held.shape[1]
+    wt = False
+    for l in range(L):
+        if held[c, l] != 0:
+            wt = True
+    if not wt:
+        return
+    gx, gy = _grad(h, c, nx, ny, sp)
+    budget = evaporation * ((sp * sp) * math.sqrt(1.0 + gx * gx + gy * gy))
+    total = 0.0
+    for l in range(L - 1, -1, -1):
+        e = min(held[c, l], budget)
+        held[c, l] -= e
+        budget -= e
+        total += e
+    evaporated[c] += total
 
 
 @njit(cache=True, nogil=True, parallel=True)
 def _evaporate(ny, nx, sp, h, held, evaporated, evaporation):
-    """particles.evaporate with the start-of-step gradient (cells apart)."""
-    if evaporation <= 0:
-        return
-    L = held.shape[1]
-    a = sp * sp
+    """particles.evaporate over the whole grid (cells apart)."""
     for c in prange(ny * nx):
-        wet = False
-        for l in range(L):
-            if held[c, l] != 0:
-                wet = True
-        if not wet:
-            continue
-        gx, gy = _grad(h, c, nx, ny, sp)
-        budget = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
-        total = 0.0
-        for l in range(L - 1, -1, -1):
-            e = min(held[c, l], budget)
-            held[c, l] -= e
-            budget -= e
-            total += e
-        evaporated[c] += total
+        _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
+
+
+@njit(cache=True, nogil=True)
+def _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n, I, n):
+    """particles.evaporate where water can be: the cells wet after the release (``wet``, in
+    ascending chunks) and the cells of the n packed drops (ascending: the one-cell footprint's
+    order), each once.  Absorption only wets a drop's own cell, and each cell's evaporation is
+    its own, so the order of the cells changes no number."""
+    nc = ny * nx
+    nt = wet_n.size
+    o = 0
+    last = -1
+    for t in range(nt):
+        k0 = nc * t // nt
+        for k in range(k0, k0 + wet_n[t]):
+            c = wet[k]
+            while o < n and I[o, CELL] < c:           # the drops' cells before c
+                if I[o, CELL] != last:
+                    last = I[o, CELL]
+                    _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
+                o += 1
+            if c != last:
+                last = c
+                _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
+    while o < n:
+        if I[o, CELL] != last:
+            last = I[o, CELL]
+            _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
+        o += 1
