@@ -308,6 +308,20 @@ def _laid(a, tf, df, sk, kb, dtouched, nd):
         sk[key - kb, 3] = 0.0
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _unpack(F, I, o, j, pos, vel, volume, sediment, kind, moving, age):
+    """Packed drop o into index j of the caller's arrays."""
+    pos[j, 0] = F[o, X]
+    pos[j, 1] = F[o, Y]
+    vel[j, 0] = F[o, VX]
+    vel[j, 1] = F[o, VY]
+    volume[j] = F[o, VOL]
+    sediment[j] = max(F[o, SED], 0.0)
+    kind[j] = I[o, KIND]
+    moving[j] = I[o, MOV] != 0
+    age[j] = I[o, AGE]
+
+
 @njit(cache=True, nogil=True)
 def _counting_sort(key, n, nb, counts, slot):
     """slot[r] = rank of r when the r < n with key[r] >= 0 are sorted by key (< nb), then by r;
@@ -741,34 +755,21 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                   deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
                   ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
                   pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi)
-    # --- the drops with water back into the caller's arrays, in drop order ----------------------
+    # --- the drops with water back into the caller's arrays, in drop order: read from their
+    # packed rows (slot, or key -1 if it left), written front to back -----------------------------
     m = 0
     for o in prange(n):
         if fb[o, VOL] > 0:
             m += 1
-    if m < n0:                                       # some left: the survivors' new indices
+    if m == n0:                                      # none left: each keeps its index
         for r in prange(n0):
-            key[r] = -1
-        for o in prange(n):
-            if fb[o, VOL] > 0:
-                key[ib[o, RANK]] = 0
+            _unpack(fb, ib, slot[r], r, pos, vel, volume, sediment, kind, moving, age)
+    else:
         j = 0
         for r in range(n0):
-            if key[r] >= 0:
-                slot[r] = j
+            if key[r] >= 0 and fb[slot[r], VOL] > 0:
+                _unpack(fb, ib, slot[r], j, pos, vel, volume, sediment, kind, moving, age)
                 j += 1
-    for o in prange(n):
-        if fb[o, VOL] > 0:
-            j = slot[ib[o, RANK]] if m < n0 else ib[o, RANK]
-            pos[j, 0] = fb[o, X]
-            pos[j, 1] = fb[o, Y]
-            vel[j, 0] = fb[o, VX]
-            vel[j, 1] = fb[o, VY]
-            volume[j] = fb[o, VOL]
-            sediment[j] = max(fb[o, SED], 0.0)
-            kind[j] = ib[o, KIND]
-            moving[j] = ib[o, MOV] != 0
-            age[j] = ib[o, AGE]
     if evaporation > 0:
         if mode == 0:
             _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n[:nth], ib, n)
