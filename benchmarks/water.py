@@ -123,7 +123,7 @@ def path_child(a) -> None:
         import numba
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     s, d, p = build(a.size, a.drops)
-    n0, fig = len(d), {"threads": threads}
+    n0, fig = len(d), {"threads": 1 if a.path == "numpy" else threads}
     if a.path == "limit":
         from procgen_water.kernels import bytes_per_cell
         run = _limit_kernel()

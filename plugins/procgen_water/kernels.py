@@ -517,6 +517,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
         st = stamps[0]
         nt = 0
         na = 0
+        wants = False
         for i in range(lo, hi):
             tp = I[i, TOP]
             tk = max(tp, 0)
@@ -533,7 +534,8 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             ent[na, 3] = key
             na += 1
             nt = _add(rows, kb, st, touched, nt, key, demand)
-        if na:
+            wants = wants or demand > 0
+        if wants:             # (no demand: nothing granted, no volume or sediment changes)
             for t in range(nt):                       # per key: the granted total, into held
                 key = touched[t]
                 c = key // L
