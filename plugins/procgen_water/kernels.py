@@ -17,9 +17,18 @@ the one-cell footprint a key (cell, layer) only hears the drops of its own cell,
 sort keeps them in drop order, so sorting by cell changes no sum; the wider footprints (a key
 hears drops of several cells) keep the drop order (the sort key is then 0).  The surface gradient
 is evaluated where needed from a start-of-step height buffer (``np.gradient``'s formulas).
+Evaporation visits only the cells wet after the release and the drops' cells (absorption wets
+no other), and when no drop left the grid or changed cell the drops are not sorted again.
+
+Threads (numba's, see procgen.accel): the grid passes run in chunks of cells, the drops' move
+and the copies between the caller's arrays and the packed rows in chunks of drops, and with the
+one-cell footprint the interaction in chunks of whole cells (each with its own key rows and
+scratch); every number belongs to one cell or one drop, so the result does not depend on the
+thread count.  The counting sorts, the drain and the wider footprints' interaction stay serial.
 
 Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
-height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
+height, a 4-byte counting-sort slot and a 4-byte wet-list entry, all allocated once per Surface;
+per drop two packed rows
 in each of two buffers and the pair scratch, grown geometrically: a step allocates nothing
 (``bytes_per_cell``, ``Work.bytes_per_drop``).
 """
