@@ -13,12 +13,15 @@ and the machine's limit: a trivial compiled kernel doing the least memory traffi
 in the order that costs least (the compiled path's own order): one pass over the grid's
 base/thickness/held writing the height; the drops counting-sorted by cell (int32 slots); per
 drop, in cell order, its state read and written back, the 4x4 cells of its gradient stencil
-and its cell's layers read and written back; no arithmetic to speak of.  Times are CPU times
-(``time.process_time``) of each child: the machine is shared by several jobs on 2 cores, and
-CPU time survives load better than wall time; each path runs twice, alternating, and keeps its
-faster child.  The table gives time per
-drop-step, the ratio, and the compiled path's distance from the limit; both paths' final
-thickness/held/drops are hashed to show they agree bit for bit.
+and its cell's layers read and written back; no arithmetic to speak of.  Two rows: ``drops``
+on one thread, timed in CPU time (``time.process_time``: the machine is shared by several jobs
+on 2 cores, and CPU time survives load better than wall time), and ``drops-2t``, the compiled
+path and the limit kernel on numba's 2 threads (the same loops split over cells / drops),
+timed in wall time (``time.perf_counter``) beside the single-threaded numpy path's wall time;
+a loaded machine makes wall times, and most of all 2-thread ones, long.  Each path runs twice,
+alternating, and keeps its faster child.  The table gives time per drop-step, the ratio, and
+the compiled path's distance from the limit; both paths' final thickness/held/drops are hashed
+to show they agree bit for bit (and with 2 threads as with one).
 Usage: python benchmarks/water.py [--steps 100] [--drops 50000] [--size 512] [--paths]
                                   [--baseline /work/venv-main/bin/python]
 With --baseline, the previous version of this benchmark runs after it under that interpreter
@@ -72,7 +75,8 @@ def main() -> None:
     if a.path:
         return path_child(a)
     if a.paths:
-        _paths.compare([("drops", f"drops {a.drops:,} on {a.size}^2 x 3 layers, {a.steps} steps (per drop-step)")],
+        text = f"drops {a.drops:,} on {a.size}^2 x 3 layers, {a.steps} steps (per drop-step)"
+        _paths.compare([("drops", text + ", 1 thread, CPU"), ("drops-2t", text + ", 2 threads, wall")],
                        ["--steps", str(a.steps), "--drops", str(a.drops), "--size", str(a.size)])
         return
     s, d, p = build(a.size, a.drops)
@@ -111,8 +115,15 @@ def main() -> None:
 
 def path_child(a) -> None:
     """One path of ``--paths`` in this process: time per drop-step and figures, as JSON."""
+    threads = 2 if a.part.endswith("-2t") else 1
+    clock = time.perf_counter if threads > 1 else time.process_time
+    if a.path != "numpy":                 # (the numpy child never imports numba: its RSS)
+        import os
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")     # as procgen.accel does
+        import numba
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     s, d, p = build(a.size, a.drops)
-    n0, fig = len(d), {}
+    n0, fig = len(d), {"threads": 1 if a.path == "numpy" else threads}
     if a.path == "limit":
         from procgen_water.kernels import bytes_per_cell
         run = _limit_kernel()
@@ -120,11 +131,11 @@ def path_child(a) -> None:
         counts, order = np.empty(s.ncell + 1, np.int32), np.empty(n0, np.int32)
         args = (s.base, s.thickness, s.held, h, d.pos, s.shape[0], s.shape[1], counts, order)
         run(*args)                                                                  # compile
-        t0 = time.process_time()
+        t0 = clock()
         for _ in range(a.steps):
             run(*args)
-        t = time.process_time() - t0
-        _paths.report(seconds=t / (a.steps * n0), bytes_per_cell_scratch=bytes_per_cell(s.n_layers))
+        t = clock() - t0
+        _paths.report(seconds=t / (a.steps * n0), bytes_per_cell_scratch=bytes_per_cell(s.n_layers), **fig)
         return
     accelerate = a.path == "compiled"
     if accelerate:
@@ -132,12 +143,12 @@ def path_child(a) -> None:
         t0 = time.process_time()
         P.step(ws, wd, wp, accelerate=True)               # numba import + kernel load (or compile)
         fig["warmup_s"] = round(time.process_time() - t0, 2)
-    t0 = time.process_time()
+    t0 = clock()
     drop_steps = 0
     for _ in range(a.steps):
         drop_steps += len(d)
         d = P.step(s, d, p, accelerate=accelerate)
-    t = time.process_time() - t0
+    t = clock() - t0
     digest = hashlib.sha256()
     for arr in (s.thickness, s.held, s.deposit, s.evaporated, d.pos, d.volume, d.sediment):
         digest.update(np.ascontiguousarray(arr).tobytes())
@@ -153,14 +164,15 @@ def path_child(a) -> None:
 
 
 def _limit_kernel():
-    """The trivial kernel of ``--paths``: the step's least memory traffic, next to no arithmetic."""
-    from numba import njit
+    """The trivial kernel of ``--paths``: the step's least memory traffic, next to no arithmetic;
+    the grid pass and the drop pass split over numba's threads as the compiled step's are."""
+    from numba import njit, prange
 
-    @njit(cache=True, nogil=True)
+    @njit(cache=True, nogil=True, parallel=True)
     def run(base, thickness, held, h, pos, ny, nx, counts, order):
         L = thickness.shape[1]
         n = pos.shape[0]
-        for c in range(ny * nx):                 # stream: base + layers + held -> height
+        for c in prange(ny * nx):                # stream: base + layers + held -> height
             v = base[c]
             for l in range(L):
                 v += thickness[c, l] + held[c, l]
@@ -174,7 +186,7 @@ def _limit_kernel():
             c = int(pos[i, 1]) * nx + int(pos[i, 0])
             order[counts[c]] = i
             counts[c] += 1
-        for o in range(n):                       # per drop, in cell order: state + 4x4 cells
+        for o in prange(n):                      # per drop, in cell order: state + 4x4 cells
             i = order[o]
             ix = min(max(int(pos[i, 0]) - 1, 0), nx - 4)
             iy = min(max(int(pos[i, 1]) - 1, 0), ny - 4)

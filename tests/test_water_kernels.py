@@ -47,6 +47,30 @@ def test_compiled_step_equals_numpy_step_exactly(name):
     assert s0.deposit.sum() > 0 and (s0.held.sum() > 0 or name.startswith("capacity"))   # phases run
 
 
+@pytest.mark.parametrize("name", ["thesis", "capacity-cell"])
+def test_compiled_step_on_two_threads_equals_numpy_step_exactly(name, monkeypatch):
+    """The one-cell footprint's interaction split into chunks of whole cells (one per thread,
+    here even for a few drops), the grid passes and the drops' loops over numba's threads."""
+    numba = pytest.importorskip("numba")
+    from procgen_water import kernels as K
+    monkeypatch.setattr(K, "_MIN_CHUNK", 1)
+    case = CASES[name]()
+    s0, d0 = _run(case, False)
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    try:
+        s1, d1 = _run(case, True)
+        chunks = s1.__dict__[K._ATTR].chunks
+    finally:
+        numba.set_num_threads(before)
+    if numba.config.NUMBA_NUM_THREADS >= 2:
+        assert 0 < chunks[1] < chunks[2]               # the last step really ran in two chunks
+    for f in DROPS:
+        np.testing.assert_array_equal(getattr(d1, f), getattr(d0, f), err_msg=f)
+    for f in SURFACE:
+        np.testing.assert_array_equal(getattr(s1, f), getattr(s0, f), err_msg=f)
+
+
 def test_compiled_step_keeps_no_grid_sized_temporaries_between_steps():
     from procgen_water import kernels as K
     s, d, p = CASES["thesis"]()
@@ -56,8 +80,11 @@ def test_compiled_step_keeps_no_grid_sized_temporaries_between_steps():
     d = P.step(s, d, p, accelerate=True)
     assert ids == [id(a) for a in (work.sk, work.h, work.counts)]
     assert not work.sk[:, 3].any()                # the deposit columns are left at zero
-    assert not work.cell_sk[:, 3].any()
+    assert not work.cell_sk[..., 3].any()
     assert work.grid_bytes == s.ncell * K.bytes_per_cell(s.n_layers) + 4     # + 1 sort slot
+    ids = [id(a) for a in (work.fa, work.fb, work.wet, work.pairs)]
+    d = P.step(s, d, p, accelerate=True)
+    assert ids == [id(a) for a in (work.fa, work.fb, work.wet, work.pairs)]
 
 
 def test_accelerate_true_without_numba_is_one_line_error(monkeypatch):

@@ -17,9 +17,18 @@ the one-cell footprint a key (cell, layer) only hears the drops of its own cell,
 sort keeps them in drop order, so sorting by cell changes no sum; the wider footprints (a key
 hears drops of several cells) keep the drop order (the sort key is then 0).  The surface gradient
 is evaluated where needed from a start-of-step height buffer (``np.gradient``'s formulas).
+Evaporation visits only the cells wet after the release and the drops' cells (absorption wets
+no other), and when no drop left the grid or changed cell the drops are not sorted again.
+
+Threads (numba's, see procgen.accel): the grid passes run in chunks of cells, the drops' move
+and the copies between the caller's arrays and the packed rows in chunks of drops, and with the
+one-cell footprint the interaction in chunks of whole cells (each with its own key rows and
+scratch); every number belongs to one cell or one drop, so the result does not depend on the
+thread count.  The counting sorts, the drain and the wider footprints' interaction stay serial.
 
 Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
-height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
+height, a 4-byte counting-sort slot and a 4-byte wet-list entry, all allocated once per Surface;
+per drop two packed rows
 in each of two buffers and the pair scratch, grown geometrically: a step allocates nothing
 (``bytes_per_cell``, ``Work.bytes_per_drop``).
 """
@@ -28,12 +37,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+import numba
+from numba import njit, prange
 
 from . import particles as P
 
 _FOOTPRINTS = {"cell": 0, "bilinear": 1, "disc": 2}
 _ATTR = "_drop_kernel_work"
+_MIN_CHUNK = 2048          # drops per thread below which the interaction runs on fewer threads
 
 # a drop's packed rows: floats (64 bytes) and int32s (32 bytes; KIND..AGE are the Drops fields,
 # RANK its index in the caller's arrays, CELL / TOP / OUT per-step scratch)
@@ -48,10 +59,14 @@ class Work:
 
     def __init__(self, ncell: int, n_layers: int) -> None:
         self.sk = np.zeros((ncell * n_layers, 4))
-        self.cell_sk = np.zeros((n_layers, 4))           # the same rows for one cell's keys
-        self.stamps = np.zeros(1)
+        threads = numba.config.NUMBA_NUM_THREADS            # the most a step can use
+        self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
+        self.stamps = np.zeros(threads + 1)                 # phase stamps: sk's, then per thread
+        self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
+        self.wet = np.empty(ncell, np.int32)                # the cells wet after the release
+        self.wet_n = np.empty(threads, np.int64)            # how many, per thread's chunk
         self.cap = 0
         self.pcap = 0
         self.grow(1024, 1)
@@ -77,7 +92,7 @@ class Work:
 
     @property
     def grid_bytes(self) -> int:
-        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes
+        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes + self.wet.nbytes
 
     @property
     def bytes_per_drop(self) -> int:
@@ -91,8 +106,9 @@ class Work:
 
 
 def bytes_per_cell(n_layers: int) -> int:
-    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots)."""
-    return 32 * n_layers + 12
+    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots,
+    wet-cell list)."""
+    return 32 * n_layers + 16
 
 
 def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
@@ -122,7 +138,8 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
-              work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
+              work.wet, work.wet_n, work.chunks, min(numba.get_num_threads(), work.wet_n.size),
+              _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
@@ -289,16 +306,29 @@ def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched,
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _laid(a, thickness, deposit, sk, kb, dtouched, nd):
-    """particles._deposit's ``thickness += bincount(...) / a`` for the keys laid on."""
-    tf = thickness.reshape(-1)
-    df = deposit.reshape(-1)
+def _laid(a, tf, df, sk, kb, dtouched, nd):
+    """particles._deposit's ``thickness += bincount(...) / a`` for the keys laid on (tf, df: the
+    flat thickness and deposit)."""
     for t in range(nd):
         key = dtouched[t]
         add = sk[key - kb, 3] / a
         tf[key] += add
         df[key] += add
         sk[key - kb, 3] = 0.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _unpack(F, I, o, j, pos, vel, volume, sediment, kind, moving, age):
+    """Packed drop o into index j of the caller's arrays."""
+    pos[j, 0] = F[o, X]
+    pos[j, 1] = F[o, Y]
+    vel[j, 0] = F[o, VX]
+    vel[j, 1] = F[o, VY]
+    volume[j] = F[o, VOL]
+    sediment[j] = max(F[o, SED], 0.0)
+    kind[j] = I[o, KIND]
+    moving[j] = I[o, MOV] != 0
+    age[j] = I[o, AGE]
 
 
 @njit(cache=True, nogil=True)
@@ -325,41 +355,51 @@ def _copy_row(F, I, o, G, J, j):
         J[j, q] = I[o, q]
 
 
-@njit(cache=True, nogil=True)
-def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h):
-    """particles.release_excess and Surface.height in one pass over the grid."""
+@njit(cache=True, nogil=True, parallel=True)
+def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h, wet, wet_n):
+    """particles.release_excess and Surface.height in one pass over the grid, in one chunk of
+    cells per entry of ``wet_n`` (cells apart); the cells then holding water are listed, in
+    order, at the start of their chunk's part of ``wet`` (the count in ``wet_n``)."""
     L = thickness.shape[1]
-    for c in range(ny * nx):
-        wet = False
-        for l in range(L):
-            if held[c, l] != 0:
-                wet = True
-        if wet:
-            tot = 0.0
+    nc = ny * nx
+    nt = wet_n.size
+    for t in prange(nt):
+        k0 = nc * t // nt
+        k = k0
+        for c in range(k0, nc * (t + 1) // nt):
+            wt = False
             for l in range(L):
-                ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
-                if ex > 0:
-                    held[c, l] -= ex
-                    tot += ex
-            if tot > 0:
-                evaporated[c] += tot
-        hc = base[c]
-        for l in range(L):
-            hc += thickness[c, l]
-        h[c] = hc
+                if held[c, l] != 0:
+                    wt = True
+            if wt:
+                tot = 0.0
+                for l in range(L):
+                    ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
+                    if ex > 0:
+                        held[c, l] -= ex
+                        tot += ex
+                if tot > 0:
+                    evaporated[c] += tot
+                wet[k] = c
+                k += 1
+            hc = base[c]
+            for l in range(L):
+                hc += thickness[c, l]
+            h[c] = hc
+        wet_n[t] = k - k0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def _move(ny, nx, sp, h, thickness, roughness, F, I, n, gravity, friction, adh_k, max_speed,
           stable_speed, max_age):
-    """particles.move over the packed drops: new position, velocity, speed, dh, the start cell
-    (CELL) and OUT for drops that left the grid; returns how many left."""
+    """particles.move over the packed drops (each on its own): new position, velocity, speed,
+    dh, the start cell (CELL) and OUT for drops that left the grid; returns how many left."""
     L = thickness.shape[1]
     vmax = max_speed * sp
     hi_x = nx * (1 - 1e-12)
     hi_y = ny * (1 - 1e-12)
     nout = 0
-    for i in range(n):
+    for i in prange(n):
         F[i, DH] = 0.0
         I[i, OUT] = 0
         if not I[i, MOV]:
@@ -453,11 +493,11 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
 
 
 @njit(cache=True, nogil=True)
-def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
+def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, n):
-    """particles.interact (and the path count) over the n packed drops, each key's sum in row
+              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n):
+    """particles.interact (and the path count) over the packed drops lo..n-1, each key's sum in row
     key - kb of ``rows``.  With the one-cell footprint the drops come in (cell, drop) order and
     a key hears only its own cell's drops, so the phases run one cell at a time on the few rows
     of ``cell_sk`` (kb = cell * L): no number changes while each cell's data stays in cache.
@@ -465,11 +505,9 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
     grid's rows ``sk`` (kb = 0).  Empty drops are left with volume 0 (the caller drops them)."""
     L = thickness.shape[1]
     a = sp * sp
-    tf = thickness.reshape(-1)
-    hf = held.reshape(-1)
     fc = pkey
     fw = pairs[:, 0]
-    lo = 0
+    pdem = pairs[:, 1]
     while lo < n:
         rows, kb, hi = sk, 0, n
         if mode == 0:
@@ -488,6 +526,7 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
         st = stamps[0]
         nt = 0
         na = 0
+        wants = False
         for i in range(lo, hi):
             tp = I[i, TOP]
             tk = max(tp, 0)
@@ -504,7 +543,8 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
             ent[na, 3] = key
             na += 1
             nt = _add(rows, kb, st, touched, nt, key, demand)
-        if na:
+            wants = wants or demand > 0
+        if wants:             # (no demand: nothing granted, no volume or sediment changes)
             for t in range(nt):                       # per key: the granted total, into held
                 key = touched[t]
                 c = key // L
@@ -527,14 +567,13 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
                 if dep > 0:
                     nd = _lay(nx, ny, L, i, dep, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                     F[i, SED] -= dep
-            _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+            _laid(a, tf, df, rows, kb, dtouched, nd)
         # --- erosion by moving drops --------------------------------------------------------------
         stamps[0] += 1.0
         st = stamps[0]
         nt = 0
         kk = 0
         ne = 0
-        pdem = pairs[:, 1]
         for i in range(lo, hi):
             if not ((I[i, MOV] or erode_stabilised) and F[i, VOL] > 0):
                 continue
@@ -581,7 +620,6 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
             # per key: what is removed; then rows[:, 0] = got / total, rows[:, 1] = removed / got,
             # rows[:, 3] = water released per removed volume (reset below)
             nrel = 0
-            df = deposit.reshape(-1)
             for t in range(nt):
                 key = touched[t]
                 tot = rows[key - kb, 0]
@@ -635,7 +673,7 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
                 if extra > 0:
                     nd = _lay(nx, ny, L, i, extra, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                     F[i, SED] -= extra
-            _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+            _laid(a, tf, df, rows, kb, dtouched, nd)
         # --- empty drops lay what they carry ------------------------------------------------------
         nd = 0
         for i in range(lo, hi):
@@ -643,28 +681,32 @@ def _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capac
                 s_ = F[i, SED]
                 nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                 F[i, SED] -= s_
-        _laid(a, thickness, deposit, rows, kb, dtouched, nd)
+        _laid(a, tf, df, rows, kb, dtouched, nd)
         lo = hi
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drained_sed, path,
           absorption_rate, capacity, erosion_rate, threshold, roughness, absorbs, erodible,
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, cell_sk, stamps, h, counts, fa, ia, fb, ib, rk, ent, pairs, pkey,
-          touched, dtouched):
+          oy, ox, ow, sk, cell_sk, stamps, h, counts, wet, wet_n, chunks, nth, min_chunk, fa, ia,
+          fb, ib, rk, ent, pairs, pkey, touched, dtouched):
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
     key = rk[:, 0]
     slot = rk[:, 1]
-    _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h)
+    tf = thickness.reshape(-1)
+    hf = held.reshape(-1)
+    df = deposit.reshape(-1)
+    _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h, wet,
+                        wet_n[:nth])
     # --- pack the drops, sorted by start cell -------------------------------------------------
-    for r in range(n0):
+    for r in prange(n0):
         key[r] = _cell_of(pos[r, 0], pos[r, 1], nx, ny) if mode == 0 else 0
     _counting_sort(key, n0, nb, counts, slot)
-    for r in range(n0):
+    for r in prange(n0):
         o = slot[r]
         fa[o, X] = pos[r, 0]
         fa[o, Y] = pos[r, 1]
@@ -681,71 +723,124 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                  max_speed, stable_speed, max_age)
     if nout:
         _drain(fa, ia, n0, L, sk, stamps, touched, drained, drained_sed)
-    # --- repack the drops still on the grid, sorted by end cell then drop index -----------------
-    for o in range(n0):
+    # --- repack the drops still on the grid, sorted by end cell then drop index (unless no
+    # drop left and none changed cell: then they are in that order already) -------------------
+    changed = 0
+    for o in prange(n0):
         r = ia[o, RANK]
         if ia[o, OUT]:
             key[r] = -1
         else:
             c = _cell_of(fa[o, X], fa[o, Y], nx, ny)
             ia[o, CELL] = c
-            key[r] = c if mode == 0 else 0
-    n = _counting_sort(key, n0, nb, counts, slot)
-    for o in range(n0):
-        if not ia[o, OUT]:
-            _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
-    # --- interact ---------------------------------------------------------------------------------
-    _interact(ny, nx, sp, thickness, held, deposit, path, absorption_rate, capacity,
-              erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
-              deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, n)
-    # --- the drops with water back into the caller's arrays, in drop order ----------------------
-    for r in range(n0):
-        key[r] = -1
-    for o in range(n):
-        if fb[o, VOL] > 0:
-            key[ib[o, RANK]] = 0
+            k = c if mode == 0 else 0
+            if k != key[r]:
+                changed += 1
+            key[r] = k
+    n = n0
+    if nout or changed:
+        n = _counting_sort(key, n0, nb, counts, slot)
+        for o in prange(n0):
+            if not ia[o, OUT]:
+                _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
+    else:
+        fb = fa
+        ib = ia
+    # --- interact: with the one-cell footprint in chunks of whole cells, one per thread ----------
+    nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
+    chunks[0] = 0
+    for t in range(1, nt):
+        b = max(n * t // nt, chunks[t - 1])
+        while b < n and ib[b, CELL] == ib[b - 1, CELL]:
+            b += 1
+        chunks[t] = b
+    chunks[nt] = n
+    for t in prange(nt):
+        lo = chunks[t]
+        hi = chunks[t + 1]
+        e = hi + 1 if mode == 0 else ent.shape[0]     # scratch of the other footprints: all of it
+        q = hi + 1 if mode == 0 else pairs.shape[0]
+        st = t + 1 if mode == 0 else 0                # sk's stamp, or the thread's own
+        _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
+                  erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
+                  deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
+                  ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
+                  pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi)
+    # --- the drops with water back into the caller's arrays, in drop order: read from their
+    # packed rows (slot, or key -1 if it left), written front to back -----------------------------
     m = 0
-    for r in range(n0):
-        if key[r] >= 0:
-            slot[r] = m
-            m += 1
-    for o in range(n):
+    for o in prange(n):
         if fb[o, VOL] > 0:
-            j = slot[ib[o, RANK]]
-            pos[j, 0] = fb[o, X]
-            pos[j, 1] = fb[o, Y]
-            vel[j, 0] = fb[o, VX]
-            vel[j, 1] = fb[o, VY]
-            volume[j] = fb[o, VOL]
-            sediment[j] = max(fb[o, SED], 0.0)
-            kind[j] = ib[o, KIND]
-            moving[j] = ib[o, MOV] != 0
-            age[j] = ib[o, AGE]
-    _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
+            m += 1
+    if m == n0:                                      # none left: each keeps its index
+        for r in prange(n0):
+            _unpack(fb, ib, slot[r], r, pos, vel, volume, sediment, kind, moving, age)
+    else:
+        j = 0
+        for r in range(n0):
+            if key[r] >= 0 and fb[slot[r], VOL] > 0:
+                _unpack(fb, ib, slot[r], j, pos, vel, volume, sediment, kind, moving, age)
+                j += 1
+    if evaporation > 0:
+        if mode == 0:
+            _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n[:nth], ib, n)
+        else:
+            _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
     return m
 
 
-@njit(cache=True, nogil=True)
-def _evaporate(ny, nx, sp, h, held, evaporated, evaporation):
-    """particles.evaporate with the start-of-step gradient."""
-    if evaporation <= 0:
-        return
+@njit(cache=True, nogil=True, inline="always")
+def _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation):
+    """particles.evaporate at cell c (a no-op on a dry cell), start-of-step gradient."""
     L = held.shape[1]
-    a = sp * sp
-    for c in range(ny * nx):
-        wet = False
-        for l in range(L):
-            if held[c, l] != 0:
-                wet = True
-        if not wet:
-            continue
-        gx, gy = _grad(h, c, nx, ny, sp)
-        budget = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
-        total = 0.0
-        for l in range(L - 1, -1, -1):
-            e = min(held[c, l], budget)
-            held[c, l] -= e
-            budget -= e
-            total += e
-        evaporated[c] += total
+    wt = False
+    for l in range(L):
+        if held[c, l] != 0:
+            wt = True
+    if not wt:
+        return
+    gx, gy = _grad(h, c, nx, ny, sp)
+    budget = evaporation * ((sp * sp) * math.sqrt(1.0 + gx * gx + gy * gy))
+    total = 0.0
+    for l in range(L - 1, -1, -1):
+        e = min(held[c, l], budget)
+        held[c, l] -= e
+        budget -= e
+        total += e
+    evaporated[c] += total
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _evaporate(ny, nx, sp, h, held, evaporated, evaporation):
+    """particles.evaporate over the whole grid (cells apart)."""
+    for c in prange(ny * nx):
+        _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
+
+
+@njit(cache=True, nogil=True)
+def _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n, I, n):
+    """particles.evaporate where water can be: the cells wet after the release (``wet``, in
+    ascending chunks) and the cells of the n packed drops (ascending: the one-cell footprint's
+    order), each once.  Absorption only wets a drop's own cell, and each cell's evaporation is
+    its own, so the order of the cells changes no number."""
+    nc = ny * nx
+    nt = wet_n.size
+    o = 0
+    last = -1
+    for t in range(nt):
+        k0 = nc * t // nt
+        for k in range(k0, k0 + wet_n[t]):
+            c = wet[k]
+            while o < n and I[o, CELL] < c:           # the drops' cells before c
+                if I[o, CELL] != last:
+                    last = I[o, CELL]
+                    _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
+                o += 1
+            if c != last:
+                last = c
+                _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
+    while o < n:
+        if I[o, CELL] != last:
+            last = I[o, CELL]
+            _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
+        o += 1
