@@ -179,17 +179,21 @@ class Modules:
         k1 = np.argmax(spec, axis=1)
         mr = r.resistance_value
         above = s1 > mr
+        # what turns a CM: stress above mR only, or (steer = "any") the strongest axis wherever
+        # the spectrum has one, so that a head coasting on K through a crack's release band turns
+        # across the stress left along that crack and meets it at about a right angle
+        steer = above if r.steer == "unstable" else s1 > srt[:, 0]
         infl = AXIS_ANGLES[k1] + np.pi / 2                    # across the strongest axis
         d = wrap_angle(infl - ang)
         d = np.where(d > np.pi / 2, d - np.pi, np.where(d <= -np.pi / 2, d + np.pi, d))
         # influence nearly across the heading: either sense is as near, so turn to the side
         # with less stress ahead (towards a crack that released it: plate 5.5's "drawn into")
-        amb = np.nonzero(above & (np.abs(np.abs(d) - np.pi / 2) < np.radians(15.0)))[0]
+        amb = np.nonzero(steer & (np.abs(np.abs(d) - np.pi / 2) < np.radians(15.0)))[0]
         if len(amb):
             left = self._side_stress(amb, lay, face, xy, hvec, 1.0)
             right = self._side_stress(amb, lay, face, xy, hvec, -1.0)
             d[amb] = np.where(left < right, 1.0, np.where(right < left, -1.0, np.sign(d[amb]))) * np.abs(d[amb])
-        turn = np.where(above, (1.0 - r.inertia / 100.0) * d, 0.0)
+        turn = np.where(steer, (1.0 - r.inertia / 100.0) * d, 0.0)
         new_ang = ang + turn
         fork = above & (s1 - s2 < r.fork_epsilon * mr) & (s2 > mr) & (cm["steps"] >= 2)
         # K grows with the excess over mR and falls with the deficit below it, times the drag

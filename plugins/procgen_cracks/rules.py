@@ -185,6 +185,9 @@ class CrackPropagate(RuleBase):
     drag: float = param(1.0, ge=0.0, le=1.0,
                         doc="share of the deficit below mR that a CM's K loses per cell (thesis: "
                             "K falls below the tolerance; how fast is not given; mud: low)")
+    steer: str = param("unstable", choices=("unstable", "any"),
+                       doc="what turns a CM: only stress above mR, or the strongest axis wherever "
+                           "it is (mud, plate 5.10: heads meet cracks at about a right angle)")
     fork_epsilon: float = param(0.02, ge=0.0, doc="fork when the two strongest axes differ by < this x mR")
     release_distance: float = param(2.0, gt=0.0, le=20.0, doc="d: stress released out to d cells")
     release: float = param(2.0, ge=0.0, le=100.0,
