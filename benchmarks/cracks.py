@@ -9,7 +9,9 @@ figure to trust on a shared, loaded machine) (cells, stack, stress + relaxation,
 propagation), CM steps, cracks, the unstable fraction at the end, the time per cell ratio
 (full / baseline: near 1 means the cost grows linearly with the cells) and the ratio against
 the thesis's 20 minutes; cracks.render's CPU time per covered micro-cell (full / baseline:
-near 1 means its cost follows the covered micro-cells); then the peak RSS of the process.
+near 1 means its cost follows the covered micro-cells), and its micro-cell scan timed again on
+the final cracks on the numpy path and on the compiled one (same bytes, checked); then the
+peak RSS of the process.
 
     python benchmarks/cracks.py             # ~330,000 cells, plus the 1/8 baseline
     python benchmarks/cracks.py --quick     # ~40,000 cells, plus the 1/8 baseline
@@ -23,6 +25,8 @@ import time
 from procgen.plugins import get_plugin_manager
 from procgen.recipes import load_recipe
 from procgen.runner import run
+from procgen_cracks.render import micro_coverage
+from procgen_cracks.render_rules import crack_segments, stack_layer
 
 THESIS_SECONDS = 20 * 60
 
@@ -44,11 +48,29 @@ def run_plate(host, cells: int) -> dict:
     for rec in res.state.records:
         per_rule[rec.rule] = per_rule.get(rec.rule, 0.0) + rec.seconds
     rep = res.state.reports
-    return {"cells": rep["cells.n_cells"], "total": total, "per_rule": per_rule, "cpu": cpu,
+    scan = scan_both(res.state, recipe)
+    return {"scan": scan, "cells": rep["cells.n_cells"], "total": total, "per_rule": per_rule, "cpu": cpu,
             "steps": rep["cracks.steps"], "cracks": rep["cracks.cracks"], "modules": rep["cracks.modules"],
             "unstable_start": rep["cracks.unstable_start_fraction"],
             "unstable": rep["cracks.unstable_fraction"],
             "covered": rep["cells.cracks.covered_micro_cells"]}
+
+
+def scan_both(state, recipe) -> dict:
+    """CPU seconds of cracks.render's micro-cell scan on the run's final cracks, numpy path and
+    compiled path (procgen_cracks.render_kernels; the first call compiles or loads the cache,
+    so the compiled figure is the second of two calls), and whether the bytes agree."""
+    step = next(s for s in recipe.steps if s.rule.name == "cracks.render").rule
+    cells = state.get(step.cells)
+    seg = crack_segments(cells, state.get(step.paths), stack_layer(cells, step.layer))
+    out, sec = {}, {}
+    for label, acc in (("numpy", False), ("compiled", True), ("compiled", True)):
+        t0 = time.process_time()
+        out[label] = micro_coverage(cells, seg, step.k, profile=step.profile,
+                                    saturation=step.saturation, accelerate=acc)
+        sec[label] = time.process_time() - t0
+    sec["same"] = out["numpy"].tobytes() == out["compiled"].tobytes()
+    return sec
 
 
 def show(label: str, r: dict) -> None:
@@ -81,6 +103,16 @@ def main() -> None:
     # they grow faster than the cells): its time per covered micro-cell should stay flat
     per = {label: r["cpu"].get("cracks.render", 0.0) / max(r["covered"], 1) for label, r in
            (("baseline", base), ("full", full))}
+    for label, r in (("baseline", base), ("full", full)):
+        sc = r["scan"]
+        print(f"cracks.render scan, {label} ({r['covered']:,} covered micro-cells): numpy "
+              f"{sc['numpy']:.2f} s CPU ({1e6 * sc['numpy'] / max(r['covered'], 1):.2f} us per "
+              f"micro-cell), compiled {sc['compiled']:.2f} s ({1e6 * sc['compiled'] / max(r['covered'], 1):.2f}"
+              f" us), x{sc['numpy'] / max(sc['compiled'], 1e-9):.1f}; same bytes: {sc['same']}")
+    for path in ("numpy", "compiled"):
+        per_b = base["scan"][path] / max(base["covered"], 1)
+        per_f = full["scan"][path] / max(full["covered"], 1)
+        print(f"  {path} scan: time per covered micro-cell, full / baseline x{per_f / max(per_b, 1e-12):.2f}")
     print(f"cracks.render: {full['covered']:,} covered micro-cells ({base['covered']:,} at the "
           f"baseline, x{full['covered'] / max(base['covered'], 1):.1f} for x"
           f"{full['cells'] / base['cells']:.1f} cells); {1e6 * per['full']:.2f} us CPU per covered "

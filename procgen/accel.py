@@ -38,6 +38,9 @@ MIN_CELLS = 100_000
 """Cells from which ``accelerate=None`` takes the compiled cell-automaton steps."""
 MIN_SNAXELS = 2_000
 """Chain length from which ``accelerate=None`` takes the compiled snaxel events."""
+MIN_MICRO_PAIRS = 500_000
+"""(crack piece, micro-cell) pairs from which ``accelerate=None`` takes the compiled crack
+render scan (procgen_cracks.render_kernels)."""
 
 
 def kernels(module: str, accelerate: bool | None = None, work: int = 0, min_work: int = 0

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from procgen.accel import MIN_MICRO_PAIRS, kernels
 from procgen.errors import InputError
 from procgen.geometry import orient2d as geo_orient
 
@@ -324,7 +325,8 @@ def _pairs(spans: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
 
 
 def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
-                   saturation: float = 0.5, faces: np.ndarray | None = None) -> np.ndarray:
+                   saturation: float = 0.5, faces: np.ndarray | None = None,
+                   accelerate: bool | None = None) -> np.ndarray:
     """(n_cells, k, k) float32 coverage of every micro-cell [cell, x, y] by the segments.
 
     The subdivided ("cracked") cells are those the crack band overlaps: the cells on the path
@@ -332,7 +334,8 @@ def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
     (other cells stay 0).  A band reaching over a facet edge continues on the neighbour facet
     (:func:`unfold_across_edges`); micro-cells outside their triangle are computed but never
     shown (Figure 5.14's pink micro-cells).  ``faces`` (m,) bool: facets that may be drawn on
-    (the crack mirror's front-lit facets); default all.
+    (the crack mirror's front-lit facets); default all.  ``accelerate``: the numba scan of
+    procgen_cracks.render_kernels (same bytes), see procgen.accel.
     """
     _check_profile(profile)
     out = np.zeros(cells.n_cells * k * k, np.float32)
@@ -350,6 +353,13 @@ def micro_coverage(cells, seg: Segments, k: int, *, profile: str = "constant",
         return out.reshape(cells.n_cells, k, k)
     radius = 0.5 * np.maximum(pieces.wa, pieces.wb) + cs * np.sqrt(0.5)
     spans = _row_spans(pieces, radius, cells, k, cs)
+    kern = kernels("procgen_cracks.render_kernels", accelerate, int(spans[3].sum()), MIN_MICRO_PAIRS)
+    if kern is not None:
+        lay = cells.layout
+        kern.accumulate(out, pieces.face, pieces.a, pieces.b, pieces.wa, pieces.wb, *spans, k, cs,
+                        PROFILES.index(profile), float(saturation), lay.nx, lay.ny,
+                        lay.grid_offset, lay.lookup)
+        return out.reshape(cells.n_cells, k, k)
     cum = np.cumsum(spans[3])
     cuts = np.searchsorted(cum, np.arange(_PAIR_CHUNK, cum[-1], _PAIR_CHUNK)) if len(cum) else []
     edges = np.unique(np.concatenate([[0], cuts, [len(cum)]]).astype(np.int64))
