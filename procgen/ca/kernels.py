@@ -44,23 +44,45 @@ def compact_indices(graph: CellGraph) -> np.ndarray:
 
 
 class Neighbours:
-    """The gather layout of one graph: an (n, K) int32 table (K = the largest degree) when the
-    degrees are about equal (lattices, surface cells: every row is a fixed-length loop the
-    compiler unrolls, about twice as fast as the CSR loop with its row bounds), else CSR.
-    A short row is padded with the id n: the state buffers have one more slot, always 0 (a
-    sentinel), so a padded row sums to the count with no correction per cell."""
+    """The gather layout of one graph, made once per graph.
+
+    When the degrees are about equal (lattices, surface cells) every row is a fixed-length loop
+    the compiler unrolls (about twice as fast as the CSR loop with its row bounds), stored
+    compactly: ``delta`` (n, K) int16 = neighbour id - cell id, 16 bytes per cell for K = 8
+    instead of the int32 ids' 32 (cells are numbered along rows of a lattice or of a
+    triangle's grid, so nearly every neighbour lies within +-32767; 0.4 % of the rows of the
+    250k-cell cylinder do not).  A row that does not fit - a far neighbour, or fewer than K
+    neighbours - is an *escape* row: its delta row is unused and its int32 ids (a short row
+    padded with the id n of an always-0 sentinel slot of the state buffers) are a row of
+    ``esc_table``; ``esc_rows`` lists the escape rows in order and ``esc_ptr`` where each
+    block of ``BLOCK`` cells starts in it, so the cell loop (parallel over the blocks) walks
+    the plain rows between two escape rows with no test per cell.  Uneven degrees: CSR."""
+
+    BLOCK = 4096
 
     def __init__(self, graph: CellGraph) -> None:
         n, nnz = graph.n_cells, graph.indices.size
         deg = graph.degree
         k = int(deg.max(initial=0))
         self.indptr, self.indices = graph.indptr, compact_indices(graph)
-        self.table = np.zeros((0, 0), self.indices.dtype)
+        self.delta = np.zeros((0, 0), np.int16)
         if n and k <= 255 and n * k <= 1.25 * nnz + n:         # at most ~25 % padding
-            table = np.full((n, k), n, self.indices.dtype)
-            table[graph.rows, np.arange(nnz) - graph.indptr[graph.rows]] = self.indices
-            self.table = table
+            table = np.full((n, k), n, np.int64)
+            table[graph.rows, np.arange(nnz) - graph.indptr[graph.rows]] = graph.indices
+            delta = table - np.arange(n)[:, None]
+            esc = (deg < k) | np.any(np.abs(delta) > np.iinfo(np.int16).max, axis=1)
+            delta[esc] = 0
+            self.delta = delta.astype(np.int16)
+            self.esc_rows = np.flatnonzero(esc)
+            self.esc_table = table[esc].astype(self.indices.dtype)
+            starts = np.minimum(np.arange(-(-n // self.BLOCK) + 1) * self.BLOCK, n)
+            self.esc_ptr = np.searchsorted(self.esc_rows, starts)
         self.scratch = np.zeros(n + 1, np.uint8)                # life_step's state + sentinel
+
+    @property
+    def layout(self) -> tuple:
+        """The compact layout's arrays, as the kernels take them."""
+        return self.delta, self.esc_rows, self.esc_table, self.esc_ptr, self.BLOCK
 
     def step(self, a: np.ndarray, rule: tuple[int, int], out: np.ndarray, present=None, u=None,
              p=None, ever=None, age=None, age_rule: tuple[int, int, int, int] = (0, 0, 0, 0)) -> int:
@@ -68,9 +90,18 @@ class Neighbours:
         with the rule ``(code, cap)`` of :func:`table_code`; returns the number of cells whose
         state changed."""
         args = (a, *rule, present, u, p, out, ever, age, *age_rule)
-        if self.table.shape[1]:
-            return _rule_rows(self.table, *args)
+        if self.delta.shape[1]:
+            return _rule_compact(*self.layout, *args)
         return _rule_csr(self.indptr, self.indices, *args)
+
+    def count(self, a: np.ndarray, rule: tuple[int, int], present, count: np.ndarray,
+              flag: np.ndarray) -> None:
+        """Live-neighbour counts of the state ``a`` into ``count``, and per cell whether the
+        rule (before any birth draw) would change it into ``flag`` (:class:`LifeRun`)."""
+        if self.delta.shape[1]:
+            _count_compact(*self.layout, a, *rule, present, count, flag)
+        else:
+            _count_csr(self.indptr, self.indices, a, *rule, present, count, flag)
 
 
 def neighbours(graph: CellGraph) -> Neighbours:
@@ -146,7 +177,10 @@ class LifeRun:
         self.age_rule = AGE_RULES[age_mode]
         self.buf, self.spare = np.zeros(n + 1, np.uint8), np.zeros(n + 1, np.uint8)   # [n]: sentinel 0
         self.buf[:n] = np.asarray(alive, bool)
-        self.ever = np.array(ever, bool)
+        self.ever0 = np.array(ever, bool)
+        # ever-alive is kept per step only where the age does not tell it: a cumulative age
+        # grows exactly on the steps alive, so ever = ever0 | age > 0 (no byte read and written)
+        self.ever_buf = None if age_mode == "cumulative" else self.ever0.view(np.uint8)
         self.age = np.array(age, np.int32)          # updated in place (a cell reads its own age only)
         self.u = np.empty(0)
         self.active = False                         # on the activity-tracking step
@@ -164,29 +198,34 @@ class LifeRun:
     def alive(self) -> np.ndarray:
         return self.buf[:-1].view(bool)
 
+    @property
+    def ever(self) -> np.ndarray:
+        """The cells ever alive (a new array when derived from the age)."""
+        return self.ever0 if self.ever_buf is not None else self.ever0 | (self.age > 0)
+
     def draws(self) -> np.ndarray:
         """The buffer the birth draws go to (one uniform per cell)."""
-        if self.u.size != self.ever.size:
-            self.u = np.empty(self.ever.size)
+        if self.u.size != self.age.size:
+            self.u = np.empty(self.age.size)
         return self.u
 
     def step(self, birth_p: np.ndarray | None = None) -> bool:
         """One generation; ``birth_p``: per-cell birth probability with the draws in
         :meth:`draws` (the numpy path's ``new &= alive | (u < p)``).  True if a cell changed."""
         u = None if birth_p is None else self.u
-        n = self.ever.size
+        n = self.age.size
         if self.active:
             self.share = self.nunstable / max(n, 1)
             changed, self.nunstable = _active_step(
                 self.inc.indptr, self.inc_indices, self.buf, self.count, *self.rule, self.present, u,
                 birth_p, self.unstable, self.nunstable, self.flipped, self.mark)
-            _age_pass(self.buf, self.ever.view(np.uint8), self.age, *self.age_rule)
+            _age_pass(self.buf, self.ever_buf, self.age, *self.age_rule)
             if self.nunstable > 2 * self.ACTIVE_SHARE * n:     # (hysteresis: no switching to and fro)
                 self.active = False
             return changed > 0
         self.share = 1.0
         changed = self.nb.step(self.buf, self.rule, self.spare, self.present, u, birth_p,
-                               self.ever.view(np.uint8), self.age, self.age_rule)
+                               self.ever_buf, self.age, self.age_rule)
         self.buf, self.spare = self.spare, self.buf
         if changed <= self.ACTIVE_SHARE * n:
             self._start_tracking()
@@ -194,48 +233,79 @@ class LifeRun:
 
     def _start_tracking(self) -> None:
         """Counts and the unstable list from the current state (one dense gather)."""
-        n = self.ever.size
-        nb = self.nb
-        if nb.table.shape[1]:
-            _count_rows(nb.table, self.buf, *self.rule, self.present, self.count, self.flag)
-        else:
-            _count_csr(nb.indptr, nb.indices, self.buf, *self.rule, self.present, self.count, self.flag)
+        n = self.age.size
+        self.nb.count(self.buf, self.rule, self.present, self.count, self.flag)
         self.nunstable = _compact(self.flag, self.unstable)
         self.active = self.nunstable <= self.ACTIVE_SHARE * n
 
 
-# Two loops (fixed rows or CSR) around one inlined cell update: each cell writes only its own
-# slots and reads only the previous state, so the parallel loops give the serial result.  The
-# optional parts (presence, birth draws, ever/age) are None when off: numba compiles one
-# version per combination with the part removed, so no cell pays a test or a read for it.
+# Two cell loops (the compact fixed rows, or CSR) around one inlined cell update: each cell
+# writes only its own slots and reads only the previous state, so the parallel loops give the
+# serial result.  The optional parts (presence, birth draws, ever, age) are None when off:
+# numba compiles one version per combination with the part removed, so no cell pays a test or
+# a read for it.
 
 @njit(cache=True, nogil=True, inline="always")
 def _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
     """Cell c's next state from its live-neighbour count k: table bit 2k + state of ``code``,
     presence, birth draw (a birth happens only where u < p), ever-alive and age; a part given
     as None is compiled out.  Returns 1 when the state changed."""
+    c = np.uint64(c)                       # (unsigned indices: numba adds no negative wraparound)
     ac = np.int64(a[c])
     v = (code >> (2 * min(k, cap) + ac)) & 1
     if present is not None:
         v &= np.int64(present[c])
     if u is not None:
         v &= ac | np.int64(u[c] < p[c])
+    ev = np.int64(0)
     if ever is not None:
         ev = np.int64(ever[c]) | v
         ever[c] = ev
+    if age is not None:
         age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
     out[c] = v
     return v ^ ac
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _gather(delta, a, c):
+    """Live neighbours of a plain row of the compact layout: about half the time of a signed
+    index, for which numba adds a test for negative (from-the-end) indices per read."""
+    k = 0
+    for s in range(delta.shape[1]):
+        k += a[np.uint64(c + delta[c, s])]
+    return k
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _gather_ids(table, a, j):
+    """Live neighbours of row j of an int32 id table (an escape row)."""
+    k = 0
+    for s in range(table.shape[1]):
+        k += a[np.uint64(table[j, s])]
+    return k
+
+
 @njit(cache=True, nogil=True, parallel=True)
-def _rule_rows(table, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
+def _rule_compact(delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, u, p, out,
+                  ever, age, i_alive, i_one, i_ever, reset):
+    """The fused step over the compact layout (:class:`Neighbours`), in parallel over blocks."""
+    n = delta.shape[0]
     changed = 0
-    for c in prange(table.shape[0]):
-        k = 0
-        for s in range(table.shape[1]):
-            k += a[table[c, s]]
-        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset)
+    for b in prange(esc_ptr.size - 1):
+        lo = b * block
+        hi = min(lo + block, n)
+        ch = 0
+        for j in range(esc_ptr[b], esc_ptr[b + 1] + 1):
+            stop = esc_rows[j] if j < esc_ptr[b + 1] else hi
+            for c in range(lo, stop):
+                ch += _step_cell(c, _gather(delta, a, c), a, code, cap, present, u, p, out, ever, age,
+                                 i_alive, i_one, i_ever, reset)
+            if stop < hi:
+                ch += _step_cell(stop, _gather_ids(esc_table, a, j), a, code, cap, present, u, p, out,
+                                 ever, age, i_alive, i_one, i_ever, reset)
+            lo = stop + 1
+        changed += ch
     return changed
 
 
@@ -392,13 +462,22 @@ def _outcome(c, k, ac, code, cap, present):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _count_rows(table, a, code, cap, present, count, flag):
-    for c in prange(table.shape[0]):
-        k = 0
-        for s in range(table.shape[1]):
-            k += a[table[c, s]]
-        count[c] = k
-        flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+def _count_compact(delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, count, flag):
+    n = delta.shape[0]
+    for b in prange(esc_ptr.size - 1):
+        lo = b * block
+        hi = min(lo + block, n)
+        for j in range(esc_ptr[b], esc_ptr[b + 1] + 1):
+            stop = esc_rows[j] if j < esc_ptr[b + 1] else hi
+            for c in range(lo, stop):
+                k = _gather(delta, a, c)
+                count[c] = k
+                flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+            if stop < hi:
+                k = _gather_ids(esc_table, a, j)
+                count[stop] = k
+                flag[stop] = _outcome(stop, k, np.int64(a[stop]), code, cap, present) != a[stop]
+            lo = stop + 1
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -463,9 +542,12 @@ def _active_step(inc_ptr, inc_idx, a, count, code, cap, present, u, p, unstable,
 
 @njit(cache=True, nogil=True, parallel=True)
 def _age_pass(a, ever, age, i_alive, i_one, i_ever, reset):
-    """ever |= state and the age update of :func:`_step_cell`, over every cell."""
-    for c in prange(ever.size):
+    """ever |= state and the age update of :func:`_step_cell`, over every cell (``ever`` None:
+    not kept)."""
+    for c in prange(age.size):
         v = np.int64(a[c])
-        ev = np.int64(ever[c]) | v
-        ever[c] = ev
+        ev = np.int64(0)
+        if ever is not None:
+            ev = np.int64(ever[c]) | v
+            ever[c] = ev
         age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
