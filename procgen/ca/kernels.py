@@ -43,6 +43,12 @@ def compact_indices(graph: CellGraph) -> np.ndarray:
     return idx
 
 
+AGE_MODES = {"cumulative": (0,), "consecutive": (0, 0), "since_first": (0, 0, 0)}
+"""The ``lifelike.next_age`` readings as tuples of lengths 1, 2, 3: numba compiles one kernel
+per argument type, and a tuple's length is part of its type, so the kernels test the mode at
+compile time (no mode test nor generic expression per cell; half again as fast)."""
+
+
 class Neighbours:
     """The gather layout of one graph, made once per graph.
 
@@ -82,14 +88,14 @@ class Neighbours:
     @property
     def layout(self) -> tuple:
         """The compact layout's arrays, as the kernels take them."""
-        return self.delta, self.esc_rows, self.esc_table, self.esc_ptr, self.BLOCK
+        return (0,) * self.delta.shape[1], self.delta, self.esc_rows, self.esc_table, self.esc_ptr, self.BLOCK
 
     def step(self, a: np.ndarray, rule: tuple[int, int], out: np.ndarray, present=None, u=None,
-             p=None, ever=None, age=None, age_rule: tuple[int, int, int, int] = (0, 0, 0, 0)) -> int:
+             p=None, ever=None, age=None, mode: tuple = AGE_MODES["cumulative"]) -> int:
         """One fused step (:func:`_step_cell`) from ``a`` (n + 1 uint8, a[n] = 0) into ``out``
         with the rule ``(code, cap)`` of :func:`table_code`; returns the number of cells whose
         state changed."""
-        args = (a, *rule, present, u, p, out, ever, age, *age_rule)
+        args = (a, *rule, present, u, p, out, ever, age, mode)
         if self.delta.shape[1]:
             return _rule_compact(*self.layout, *args)
         return _rule_csr(self.indptr, self.indices, *args)
@@ -125,12 +131,6 @@ def table_code(lut: np.ndarray) -> tuple[int, int]:
         raise InputError(f"a compiled life table has at most 31 distinct count rows, got {cap + 1}")
     bits = t[: cap + 1].reshape(-1)
     return int(np.sum(bits.astype(np.int64) << np.arange(bits.size, dtype=np.int64))), cap
-
-
-AGE_RULES = {"cumulative": (1, 0, 0, 0), "consecutive": (0, 1, 0, 1), "since_first": (0, 0, 1, 0)}
-"""Per age mode (inc_alive, inc_one, inc_ever, reset_dead): age = (age + inc_alive * v + inc_one
-+ inc_ever * ever) * (1 - reset_dead * (1 - v)), the three ``lifelike.next_age`` readings in one
-branch-free expression (no mode test per cell)."""
 
 
 def life_step(graph: CellGraph, alive: np.ndarray, lut: np.ndarray, out: np.ndarray | None = None
@@ -174,7 +174,7 @@ class LifeRun:
         self.rule = table_code(lut)
         present = np.ascontiguousarray(present, bool)
         self.present = None if present.all() else present.view(np.uint8)
-        self.age_rule = AGE_RULES[age_mode]
+        self.mode = AGE_MODES[age_mode]
         self.buf, self.spare = np.zeros(n + 1, np.uint8), np.zeros(n + 1, np.uint8)   # [n]: sentinel 0
         self.buf[:n] = np.asarray(alive, bool)
         self.ever0 = np.array(ever, bool)
@@ -184,6 +184,7 @@ class LifeRun:
         self.age = np.array(age, np.int32)          # updated in place (a cell reads its own age only)
         self.u = np.empty(0)
         self.active = False                         # on the activity-tracking step
+        self.wait, self.backoff = 0, 1              # dense steps before the next tracking attempt
         self.share = 1.0                            # cells evaluated by the last step / n
         self.inc = graph.incoming                   # the cells listing each cell
         self.inc_indices = compact_indices(self.inc)
@@ -219,16 +220,19 @@ class LifeRun:
             changed, self.nunstable = _active_step(
                 self.inc.indptr, self.inc_indices, self.buf, self.count, *self.rule, self.present, u,
                 birth_p, self.unstable, self.nunstable, self.flipped, self.mark)
-            _age_pass(self.buf, self.ever_buf, self.age, *self.age_rule)
+            _age_pass(self.buf, self.ever_buf, self.age, self.mode)
             if self.nunstable > 2 * self.ACTIVE_SHARE * n:     # (hysteresis: no switching to and fro)
                 self.active = False
             return changed > 0
         self.share = 1.0
         changed = self.nb.step(self.buf, self.rule, self.spare, self.present, u, birth_p,
-                               self.ever_buf, self.age, self.age_rule)
+                               self.ever_buf, self.age, self.mode)
         self.buf, self.spare = self.spare, self.buf
         if changed <= self.ACTIVE_SHARE * n:
-            self._start_tracking()
+            if self.wait:
+                self.wait -= 1
+            else:
+                self._start_tracking()
         return changed > 0
 
     def _start_tracking(self) -> None:
@@ -237,6 +241,11 @@ class LifeRun:
         self.nb.count(self.buf, self.rule, self.present, self.count, self.flag)
         self.nunstable = _compact(self.flag, self.unstable)
         self.active = self.nunstable <= self.ACTIVE_SHARE * n
+        # a failed attempt cost a dense pass: where few cells change per step but more are
+        # unstable (birth draws holding cells back, or a churning rule), wait 1, 2, 4 .. 64
+        # dense steps before the next one instead of paying it every step
+        self.wait = 0 if self.active else self.backoff
+        self.backoff = 1 if self.active else min(2 * self.backoff, 64)
 
 
 # Two cell loops (the compact fixed rows, or CSR) around one inlined cell update: each cell
@@ -246,7 +255,7 @@ class LifeRun:
 # a read for it.
 
 @njit(cache=True, nogil=True, inline="always")
-def _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
+def _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, mode):
     """Cell c's next state from its live-neighbour count k: table bit 2k + state of ``code``,
     presence, birth draw (a birth happens only where u < p), ever-alive and age; a part given
     as None is compiled out.  Returns 1 when the state changed."""
@@ -257,38 +266,50 @@ def _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one
         v &= np.int64(present[c])
     if u is not None:
         v &= ac | np.int64(u[c] < p[c])
-    ev = np.int64(0)
-    if ever is not None:
-        ev = np.int64(ever[c]) | v
-        ever[c] = ev
-    if age is not None:
-        age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
+    _age(c, v, ever, age, mode)
     out[c] = v
     return v ^ ac
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _gather(delta, a, c):
-    """Live neighbours of a plain row of the compact layout: about half the time of a signed
-    index, for which numba adds a test for negative (from-the-end) indices per read."""
+def _age(c, v, ever, age, mode):
+    """ever |= v and the age step of the mode (:data:`AGE_MODES`) at cell c; None: not kept."""
+    ev = np.int64(0)
+    if ever is not None:
+        ev = np.int64(ever[c]) | v
+        ever[c] = ev
+    if age is not None:
+        if len(mode) == 1:                 # cumulative: +1 per step alive
+            age[c] += np.int32(v)
+        elif len(mode) == 2:               # consecutive: +1 per step alive, 0 on death
+            age[c] = (age[c] + np.int32(1)) * np.int32(v)
+        else:                              # since_first: +1 per step once ever alive
+            age[c] += np.int32(ev)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _gather(ks, delta, a, c):
+    """Live neighbours of a plain row of the compact layout.  Unsigned indices: numba adds a
+    test for negative (from-the-end) indices per signed read (about half the time); the row
+    length is ``len(ks)`` (a tuple: a compile-time constant, so the loop is unrolled)."""
     k = 0
-    for s in range(delta.shape[1]):
+    for s in range(len(ks)):
         k += a[np.uint64(c + delta[c, s])]
     return k
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _gather_ids(table, a, j):
+def _gather_ids(ks, table, a, j):
     """Live neighbours of row j of an int32 id table (an escape row)."""
     k = 0
-    for s in range(table.shape[1]):
+    for s in range(len(ks)):
         k += a[np.uint64(table[j, s])]
     return k
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _rule_compact(delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, u, p, out,
-                  ever, age, i_alive, i_one, i_ever, reset):
+def _rule_compact(ks, delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, u, p, out,
+                  ever, age, mode):
     """The fused step over the compact layout (:class:`Neighbours`), in parallel over blocks."""
     n = delta.shape[0]
     changed = 0
@@ -299,24 +320,24 @@ def _rule_compact(delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, pres
         for j in range(esc_ptr[b], esc_ptr[b + 1] + 1):
             stop = esc_rows[j] if j < esc_ptr[b + 1] else hi
             for c in range(lo, stop):
-                ch += _step_cell(c, _gather(delta, a, c), a, code, cap, present, u, p, out, ever, age,
-                                 i_alive, i_one, i_ever, reset)
+                ch += _step_cell(c, _gather(ks, delta, a, c), a, code, cap, present, u, p, out, ever,
+                                 age, mode)
             if stop < hi:
-                ch += _step_cell(stop, _gather_ids(esc_table, a, j), a, code, cap, present, u, p, out,
-                                 ever, age, i_alive, i_one, i_ever, reset)
+                ch += _step_cell(stop, _gather_ids(ks, esc_table, a, j), a, code, cap, present, u, p,
+                                 out, ever, age, mode)
             lo = stop + 1
         changed += ch
     return changed
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _rule_csr(indptr, indices, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
+def _rule_csr(indptr, indices, a, code, cap, present, u, p, out, ever, age, mode):
     changed = 0
     for c in prange(indptr.size - 1):
         k = 0
         for e in range(indptr[c], indptr[c + 1]):
             k += a[indices[e]]
-        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset)
+        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, mode)
     return changed
 
 # --------------------------------------------------------------------------------------------
@@ -462,7 +483,7 @@ def _outcome(c, k, ac, code, cap, present):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _count_compact(delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, count, flag):
+def _count_compact(ks, delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, count, flag):
     n = delta.shape[0]
     for b in prange(esc_ptr.size - 1):
         lo = b * block
@@ -470,11 +491,11 @@ def _count_compact(delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, pre
         for j in range(esc_ptr[b], esc_ptr[b + 1] + 1):
             stop = esc_rows[j] if j < esc_ptr[b + 1] else hi
             for c in range(lo, stop):
-                k = _gather(delta, a, c)
+                k = _gather(ks, delta, a, c)
                 count[c] = k
                 flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
             if stop < hi:
-                k = _gather_ids(esc_table, a, j)
+                k = _gather_ids(ks, esc_table, a, j)
                 count[stop] = k
                 flag[stop] = _outcome(stop, k, np.int64(a[stop]), code, cap, present) != a[stop]
             lo = stop + 1
@@ -541,13 +562,8 @@ def _active_step(inc_ptr, inc_idx, a, count, code, cap, present, u, p, unstable,
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _age_pass(a, ever, age, i_alive, i_one, i_ever, reset):
+def _age_pass(a, ever, age, mode):
     """ever |= state and the age update of :func:`_step_cell`, over every cell (``ever`` None:
     not kept)."""
     for c in prange(age.size):
-        v = np.int64(a[c])
-        ev = np.int64(0)
-        if ever is not None:
-            ev = np.int64(ever[c]) | v
-            ever[c] = ev
-        age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
+        _age(np.uint64(c), np.int64(a[c]), ever, age, mode)
