@@ -86,6 +86,13 @@ class Neighbours:
         self.scratch = np.zeros(n + 1, np.uint8)                # life_step's state + sentinel
 
     @property
+    def nbytes(self) -> int:
+        """Bytes of the gather layout (the neighbour bytes a dense step streams)."""
+        if self.delta.shape[1]:
+            return sum(x.nbytes for x in (self.delta, self.esc_rows, self.esc_table, self.esc_ptr))
+        return self.indptr.nbytes + self.indices.nbytes
+
+    @property
     def layout(self) -> tuple:
         """The compact layout's arrays, as the kernels take them."""
         return (0,) * self.delta.shape[1], self.delta, self.esc_rows, self.esc_table, self.esc_ptr, self.BLOCK
