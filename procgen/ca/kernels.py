@@ -3,7 +3,8 @@
 Why: the numpy steps gather through a sparse product (life) or build entry lists, sorts and
 unions per step (Voronoi frontier), i.e. a few temporaries per cell per step; a compiled loop
 reads each neighbour once, through int32 ids, and writes in place.  The life step gathers
-through fixed-length rows where the degrees allow (:class:`Neighbours`) and the ``ca.life`` rule
+through fixed-length rows of int16 id deltas where the degrees allow (:class:`Neighbours`: half
+the neighbour bytes, with exact int32 escape rows for far neighbours) and the ``ca.life`` rule
 runs one fused kernel per step (:class:`LifeRun`), in parallel over numba's threads, or, once
 few cells change, an activity-tracking step that evaluates only the cells that can change;
 the Voronoi step keeps one byte per cell for its neighbour tests.  Imported only through
@@ -156,9 +157,9 @@ class LifeRun:
     step either the dense fused kernel (count, rule table, presence, optional birth draw,
     ever-alive and age, in parallel over the cells: each cell's update reads only the previous
     buffers, so the result does not depend on the thread count) or, once few cells change, the
-    activity-tracking step (:func:`_active_step`).  ``alive``, ``ever`` and ``age`` are the
-    current arrays (``alive`` is a view of the current state buffer; ``ever`` and ``age`` are
-    updated in place).
+    activity-tracking step (:func:`_active_step`).  ``alive`` and ``age`` are the current
+    arrays (``alive`` is a view of the current state buffer; ``age`` is updated in place);
+    ``ever`` is updated in place where the age mode needs it, else derived when read.
 
     Activity tracking, the classic Life optimisation, kept exact for every mode: a cell can
     change at the next step only if its table outcome T(count, state) & present differs from
