@@ -11,6 +11,7 @@ same cells is timed in the same process, with the label agreement.
                                             # another checkout (before it moved into procgen.ca)
     python benchmarks/surface.py --quick --baseline /path/to/venv/bin/python   # + previous code
     python benchmarks/surface.py --paths    # numpy vs compiled (procgen.ca.kernels) vs limit
+    python benchmarks/surface.py --paths --only life    # only the ca.life rows
 
 Voronoi runs as the core's generic ``ca.voronoi`` kernel (procgen.ca.propagation) on the cells'
 CellGraph; ``ca.life`` (25/357, table reading) is timed on the same cells. The patina part
@@ -32,7 +33,10 @@ time; the ``2 threads`` rows run the same workload with numba's threads on both 
 wall time on every path (numpy included), which on a loaded machine is the noisier figure.
 Fastest of two alternating rounds; both paths' results are hashed.
 
-Life prints two rates that must not be confused: the dense rate (step 1, every cell evaluated;
+The life rows' limit is the same trivial gather on the compact layout the compiled life step
+reads (int16 neighbour deltas + int32 escape rows, unsigned indices: the same bytes and
+indexing); the int32 fixed-row gather is printed beside it in a second life table, with the
+bytes per cell each streams.  Life prints two rates that must not be confused: the dense rate (step 1, every cell evaluated;
 best of 5 fresh starts) and the steady rate (steps 2-100), where the compiled rule switches to
 its activity-tracking step once few cells change; ``active_share`` is the mean share of the
 cells the compiled steps evaluated (1 on a dense step), so its "to limit" compares a sparse
@@ -102,6 +106,7 @@ def main() -> None:
     ap.add_argument("--voronoi-baseline", help="checkout whose Voronoi kernel is timed beside this one")
     ap.add_argument("--paths", action="store_true", help="numpy vs compiled vs limit (see above)")
     ap.add_argument("--path-steps", type=int, default=300, help="patina steps timed by --paths")
+    ap.add_argument("--only", default="", help="--paths: only the workloads whose name starts so (life, ...)")
     add_arguments(ap)
     _paths.add_arguments(ap)
     args = ap.parse_args()
@@ -111,13 +116,16 @@ def main() -> None:
     if args.paths:
         n = int(250_000 * scale)
         m = int(220_000 * scale)
-        _paths.compare([("life-first", f"ca.life rule 25/357 on ~{n:,} cylinder cells, step 1 = dense (per cell)"),
-                        ("life", f"  steps 2-100 = steady, active share in details (per cell-step)"),
-                        ("life-2t", f"  steps 2-100, 2 threads, wall time"),
-                        ("voronoi", f"ca.voronoi 24 seeds on ~{n:,} cells to full (per frontier entry)"),
-                        ("corrode", f"layers.corrode kernel, ~{m:,} cup cells, {args.path_steps} steps (per cell-step)"),
-                        ("corrode-2t", f"  the same, 2 threads, wall time")],
-                       (["--quick"] if args.quick else []) + ["--path-steps", str(args.path_steps)])
+        work = [("life-first", f"ca.life rule 25/357 on ~{n:,} cylinder cells, step 1 = dense (per cell)"),
+                ("life-first-2t", f"  step 1 = dense, 2 threads, wall time"),
+                ("life", f"  steps 2-100 = steady, active share in details (per cell-step)"),
+                ("life-2t", f"  steps 2-100, 2 threads, wall time"),
+                ("voronoi", f"ca.voronoi 24 seeds on ~{n:,} cells to full (per frontier entry)"),
+                ("corrode", f"layers.corrode kernel, ~{m:,} cup cells, {args.path_steps} steps (per cell-step)"),
+                ("corrode-2t", f"  the same, 2 threads, wall time")]
+        rows = _paths.compare([w for w in work if w[0].startswith(args.only)],
+                              (["--quick"] if args.quick else []) + ["--path-steps", str(args.path_steps)])
+        _life_table(rows)
         return
 
     # -- Voronoi: a 48-triangle cylinder (plate 4.1), ~250k cells ----------------------------
@@ -227,6 +235,26 @@ def _cylinder_cells(target: int) -> SurfaceCells:
     return SurfaceCells.from_mesh(np.asarray(cyl.vertices), np.asarray(cyl.faces), target_cells=target)
 
 
+def _life_table(rows: list[dict]) -> None:
+    """The ca.life rows again with both limits: the int32 fixed-row gather (as in the table
+    above for the other workloads) and the same gather on the compact layout the compiled step
+    reads (int16 deltas + escape rows; the distance is to this one: the same bytes per cell)."""
+    life = [r for r in rows if r["part"].startswith("life")]
+    if not life:
+        return
+    mib = 2 ** 20
+    print(f"\nca.life {'':<14} {'numpy':>7} {'compiled':>8} {'ratio':>6} {'lim i32':>7} {'lim cmp':>7} "
+          f"{'to lim':>6} {'RSS np':>7} {'RSS cmp':>7}   bytes/cell: lim i32, lim cmp, compiled")
+    names = {"life-first": "dense 1t", "life-first-2t": "dense 2t", "life": "steady 1t", "life-2t": "steady 2t"}
+    for r in life:
+        n, c, lim = r["numpy"]["seconds"], r["compiled"]["seconds"], r["limit"]
+        i32 = lim["fixed_rows_ns"] * 1e-9
+        print(f"  {names[r['part']]:<20} {_paths._t(n)} {_paths._t(c):>8} {n / c:5.1f}x {_paths._t(i32)} "
+              f"{_paths._t(lim['seconds'])} {c / lim['seconds']:5.1f}x {r['numpy']['peak_rss'] / mib:5.0f} M "
+              f"{r['compiled']['peak_rss'] / mib:5.0f} M   {lim['bytes_per_cell']:.1f}, "
+              f"{lim['compact_bytes_per_cell']:.1f}, {r['compiled']['streamed_bytes_per_cell']:.1f}")
+
+
 def _limit_kernels():
     """The trivial gathers of the limit (compiled on first use): CSR rows, fixed-length rows
     (in parallel over the cells), and CSR rows of a list of cells (the Voronoi frontiers)."""
@@ -257,6 +285,70 @@ def _limit_kernels():
             out[c] = v
 
     return csr, rows, some
+
+
+def _compact_limit_kernels():
+    """The same trivial gather over the compact layout of the compiled life step
+    (procgen.ca.kernels.Neighbours: int16 deltas, int32 escape rows, unsigned indices, the row
+    length as a constant), and the int32 fixed rows read with unsigned indices (the indexing
+    the compiled step uses: it shows what the indexing alone gains)."""
+    from numba import njit, prange
+
+    @njit(cache=True, nogil=True, parallel=True)
+    def compact(ks, delta, esc_rows, esc_table, esc_ptr, block, x, out):
+        n = delta.shape[0]
+        for b in prange(esc_ptr.size - 1):
+            lo = b * block
+            hi = min(lo + block, n)
+            for j in range(esc_ptr[b], esc_ptr[b + 1] + 1):
+                stop = esc_rows[j] if j < esc_ptr[b + 1] else hi
+                for c in range(lo, stop):
+                    v = 0
+                    for s in range(len(ks)):
+                        v += x[np.uint64(c + delta[c, s])]
+                    out[c] = v
+                if stop < hi:
+                    v = 0
+                    for s in range(len(ks)):
+                        v += x[np.uint64(esc_table[j, s])]
+                    out[stop] = v
+                lo = stop + 1
+
+    @njit(cache=True, nogil=True, parallel=True)
+    def rows_unsigned(ks, table, x, out):
+        for c in prange(out.size):
+            v = 0
+            for s in range(len(ks)):
+                v += x[np.uint64(table[c, s])]
+            out[c] = v
+
+    return compact, rows_unsigned
+
+
+def _life_rule(dom) -> tuple:
+    """The timed ca.life rule (25/357, table reading, 5 % live) set up on ``dom``."""
+    from procgen.ca.lifelike import LifeLike
+    state = State(seed=3)
+    state.add_domain("cells", dom)
+    rule = LifeLike.from_params({"rule": "25/357", "semantics": "table", "density": 0.05})
+    state.rule_name, state.iteration = rule.name, 0
+    rule.setup(state)
+    return state, rule
+
+
+def _life_warmup() -> None:
+    """Load every compiled kernel the timed ca.life rule uses (dense step, tracking start,
+    tracking step, age pass) on a small grid, so no kernel load falls in the timed steps."""
+    from procgen import Grid
+    from procgen.ca.kernels import LifeRun
+    dom = Grid((40, 40))
+    share, LifeRun.ACTIVE_SHARE = LifeRun.ACTIVE_SHARE, 1.0      # tracking from step 2 on
+    try:
+        state, rule = _life_rule(dom)
+        for _ in range(3):
+            rule.step(state)
+    finally:
+        LifeRun.ACTIVE_SHARE = share
 
 
 def _bytes_per_cell(obj, n: int) -> float:
@@ -325,6 +417,25 @@ def path_child(args, scale: float) -> None:
                 rows(table, x, out)
             times["fixed_rows"] = (clock() - t0) / (reps * g.n_cells)
         fig.update({k + "_ns": round(v * 1e9, 2) for k, v in times.items()})
+        if part == "life":                      # + the compact layout's gather: the life limit
+            from procgen.ca.kernels import neighbours
+            nb = neighbours(g)
+            compact, rows_unsigned = _compact_limit_kernels()
+            ks = (0,) * nb.delta.shape[1]
+            xs = np.append(x, np.uint8(0))
+            more = {"compact": lambda: compact(*nb.layout, xs, out)}
+            if "fixed_rows" in times:
+                more["fixed_rows_unsigned"] = lambda: rows_unsigned(ks, table, x, out)
+            for k, f in more.items():
+                f()
+                t0 = clock()
+                for _ in range(reps):
+                    f()
+                fig[k + "_ns"] = round((clock() - t0) / (reps * g.n_cells) * 1e9, 2)
+            fig.update(compact_bytes_per_cell=round(nb.nbytes / g.n_cells + 2, 1),
+                       escape_rows=round(nb.esc_rows.size / g.n_cells, 4))
+            _paths.report(seconds=fig["compact_ns"] * 1e-9, **fig)
+            return
         _paths.report(seconds=min(times.values()), **fig)
         return
     import os
@@ -335,6 +446,7 @@ def path_child(args, scale: float) -> None:
         small = grid_graph(40, 40)
         t0 = time.perf_counter()
         life_step(small, np.zeros(small.n_cells, bool), parse_rule("B3/S23").lut(), accelerate=True)
+        _life_warmup()
         VoronoiGrowth(small, place_seeds(small.n_cells, 2, np.random.default_rng(0)), accelerate=True
                       ).step(np.random.default_rng(0))
         st = cz.CorrosionState(status=np.ones(small.n_cells, np.int8), consumable=np.ones((small.n_cells, 1)),
@@ -363,17 +475,16 @@ def path_child(args, scale: float) -> None:
         _paths.report(seconds=t / (args.path_steps * n), **fig)
         return
     if part in ("life", "life-first"):         # the whole rule step (fields published each step)
-        from procgen.ca.lifelike import LifeLike
         g.incoming                             # built once per graph (the tracking step's), not timed
 
         def start() -> tuple:
-            state = State(seed=3)
-            state.add_domain("cells", sc)
-            rule = LifeLike.from_params({"rule": "25/357", "semantics": "table", "density": 0.05})
-            state.rule_name, state.iteration = rule.name, 0
-            rule.setup(state)
-            return state, rule
+            return _life_rule(sc)
 
+        if accelerate:                         # neighbour layout + state read and write + age (+ ever)
+            run = start()[1]._run
+            fig["streamed_bytes_per_cell"] = round(
+                (run.nb.nbytes + run.age.nbytes * 2 + (run.ever0.nbytes * 2 if run.ever_buf is not None else 0))
+                / g.n_cells + 2, 1)
         if part == "life-first":               # the dense rate: step 1, every cell active
             best = np.inf
             for _ in range(5):

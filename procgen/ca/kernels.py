@@ -3,7 +3,8 @@
 Why: the numpy steps gather through a sparse product (life) or build entry lists, sorts and
 unions per step (Voronoi frontier), i.e. a few temporaries per cell per step; a compiled loop
 reads each neighbour once, through int32 ids, and writes in place.  The life step gathers
-through fixed-length rows where the degrees allow (:class:`Neighbours`) and the ``ca.life`` rule
+through fixed-length rows of int16 id deltas where the degrees allow (:class:`Neighbours`: half
+the neighbour bytes, with exact int32 escape rows for far neighbours) and the ``ca.life`` rule
 runs one fused kernel per step (:class:`LifeRun`), in parallel over numba's threads, or, once
 few cells change, an activity-tracking step that evaluates only the cells that can change;
 the Voronoi step keeps one byte per cell for its neighbour tests.  Imported only through
@@ -43,34 +44,78 @@ def compact_indices(graph: CellGraph) -> np.ndarray:
     return idx
 
 
+AGE_MODES = {"cumulative": (0,), "consecutive": (0, 0), "since_first": (0, 0, 0)}
+"""The ``lifelike.next_age`` readings as tuples of lengths 1, 2, 3: numba compiles one kernel
+per argument type, and a tuple's length is part of its type, so the kernels test the mode at
+compile time (no mode test nor generic expression per cell; half again as fast)."""
+
+
 class Neighbours:
-    """The gather layout of one graph: an (n, K) int32 table (K = the largest degree) when the
-    degrees are about equal (lattices, surface cells: every row is a fixed-length loop the
-    compiler unrolls, about twice as fast as the CSR loop with its row bounds), else CSR.
-    A short row is padded with the id n: the state buffers have one more slot, always 0 (a
-    sentinel), so a padded row sums to the count with no correction per cell."""
+    """The gather layout of one graph, made once per graph.
+
+    When the degrees are about equal (lattices, surface cells) every row is a fixed-length loop
+    the compiler unrolls (about twice as fast as the CSR loop with its row bounds), stored
+    compactly: ``delta`` (n, K) int16 = neighbour id - cell id, 16 bytes per cell for K = 8
+    instead of the int32 ids' 32 (cells are numbered along rows of a lattice or of a
+    triangle's grid, so nearly every neighbour lies within +-32767; 0.4 % of the rows of the
+    250k-cell cylinder do not).  A row that does not fit - a far neighbour, or fewer than K
+    neighbours - is an *escape* row: its delta row is unused and its int32 ids (a short row
+    padded with the id n of an always-0 sentinel slot of the state buffers) are a row of
+    ``esc_table``; ``esc_rows`` lists the escape rows in order and ``esc_ptr`` where each
+    block of ``BLOCK`` cells starts in it, so the cell loop (parallel over the blocks) walks
+    the plain rows between two escape rows with no test per cell.  Uneven degrees: CSR."""
+
+    BLOCK = 4096
 
     def __init__(self, graph: CellGraph) -> None:
         n, nnz = graph.n_cells, graph.indices.size
         deg = graph.degree
         k = int(deg.max(initial=0))
         self.indptr, self.indices = graph.indptr, compact_indices(graph)
-        self.table = np.zeros((0, 0), self.indices.dtype)
+        self.delta = np.zeros((0, 0), np.int16)
         if n and k <= 255 and n * k <= 1.25 * nnz + n:         # at most ~25 % padding
-            table = np.full((n, k), n, self.indices.dtype)
-            table[graph.rows, np.arange(nnz) - graph.indptr[graph.rows]] = self.indices
-            self.table = table
+            table = np.full((n, k), n, np.int64)
+            table[graph.rows, np.arange(nnz) - graph.indptr[graph.rows]] = graph.indices
+            delta = table - np.arange(n)[:, None]
+            esc = (deg < k) | np.any(np.abs(delta) > np.iinfo(np.int16).max, axis=1)
+            delta[esc] = 0
+            self.delta = delta.astype(np.int16)
+            self.esc_rows = np.flatnonzero(esc)
+            self.esc_table = table[esc].astype(self.indices.dtype)
+            starts = np.minimum(np.arange(-(-n // self.BLOCK) + 1) * self.BLOCK, n)
+            self.esc_ptr = np.searchsorted(self.esc_rows, starts)
         self.scratch = np.zeros(n + 1, np.uint8)                # life_step's state + sentinel
 
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the gather layout (the neighbour bytes a dense step streams)."""
+        if self.delta.shape[1]:
+            return sum(x.nbytes for x in (self.delta, self.esc_rows, self.esc_table, self.esc_ptr))
+        return self.indptr.nbytes + self.indices.nbytes
+
+    @property
+    def layout(self) -> tuple:
+        """The compact layout's arrays, as the kernels take them."""
+        return (0,) * self.delta.shape[1], self.delta, self.esc_rows, self.esc_table, self.esc_ptr, self.BLOCK
+
     def step(self, a: np.ndarray, rule: tuple[int, int], out: np.ndarray, present=None, u=None,
-             p=None, ever=None, age=None, age_rule: tuple[int, int, int, int] = (0, 0, 0, 0)) -> int:
+             p=None, ever=None, age=None, mode: tuple = AGE_MODES["cumulative"]) -> int:
         """One fused step (:func:`_step_cell`) from ``a`` (n + 1 uint8, a[n] = 0) into ``out``
         with the rule ``(code, cap)`` of :func:`table_code`; returns the number of cells whose
         state changed."""
-        args = (a, *rule, present, u, p, out, ever, age, *age_rule)
-        if self.table.shape[1]:
-            return _rule_rows(self.table, *args)
+        args = (a, *rule, present, u, p, out, ever, age, mode)
+        if self.delta.shape[1]:
+            return _rule_compact(*self.layout, *args)
         return _rule_csr(self.indptr, self.indices, *args)
+
+    def count(self, a: np.ndarray, rule: tuple[int, int], present, count: np.ndarray,
+              flag: np.ndarray) -> None:
+        """Live-neighbour counts of the state ``a`` into ``count``, and per cell whether the
+        rule (before any birth draw) would change it into ``flag`` (:class:`LifeRun`)."""
+        if self.delta.shape[1]:
+            _count_compact(*self.layout, a, *rule, present, count, flag)
+        else:
+            _count_csr(self.indptr, self.indices, a, *rule, present, count, flag)
 
 
 def neighbours(graph: CellGraph) -> Neighbours:
@@ -96,12 +141,6 @@ def table_code(lut: np.ndarray) -> tuple[int, int]:
     return int(np.sum(bits.astype(np.int64) << np.arange(bits.size, dtype=np.int64))), cap
 
 
-AGE_RULES = {"cumulative": (1, 0, 0, 0), "consecutive": (0, 1, 0, 1), "since_first": (0, 0, 1, 0)}
-"""Per age mode (inc_alive, inc_one, inc_ever, reset_dead): age = (age + inc_alive * v + inc_one
-+ inc_ever * ever) * (1 - reset_dead * (1 - v)), the three ``lifelike.next_age`` readings in one
-branch-free expression (no mode test per cell)."""
-
-
 def life_step(graph: CellGraph, alive: np.ndarray, lut: np.ndarray, out: np.ndarray | None = None
               ) -> np.ndarray:
     """``lifelike.life_step`` compiled; writes into ``out`` (bool, n) when given."""
@@ -118,9 +157,9 @@ class LifeRun:
     step either the dense fused kernel (count, rule table, presence, optional birth draw,
     ever-alive and age, in parallel over the cells: each cell's update reads only the previous
     buffers, so the result does not depend on the thread count) or, once few cells change, the
-    activity-tracking step (:func:`_active_step`).  ``alive``, ``ever`` and ``age`` are the
-    current arrays (``alive`` is a view of the current state buffer; ``ever`` and ``age`` are
-    updated in place).
+    activity-tracking step (:func:`_active_step`).  ``alive`` and ``age`` are the current
+    arrays (``alive`` is a view of the current state buffer; ``age`` is updated in place);
+    ``ever`` is updated in place where the age mode needs it, else derived when read.
 
     Activity tracking, the classic Life optimisation, kept exact for every mode: a cell can
     change at the next step only if its table outcome T(count, state) & present differs from
@@ -143,13 +182,17 @@ class LifeRun:
         self.rule = table_code(lut)
         present = np.ascontiguousarray(present, bool)
         self.present = None if present.all() else present.view(np.uint8)
-        self.age_rule = AGE_RULES[age_mode]
+        self.mode = AGE_MODES[age_mode]
         self.buf, self.spare = np.zeros(n + 1, np.uint8), np.zeros(n + 1, np.uint8)   # [n]: sentinel 0
         self.buf[:n] = np.asarray(alive, bool)
-        self.ever = np.array(ever, bool)
+        self.ever0 = np.array(ever, bool)
+        # ever-alive is kept per step only where the age does not tell it: a cumulative age
+        # grows exactly on the steps alive, so ever = ever0 | age > 0 (no byte read and written)
+        self.ever_buf = None if age_mode == "cumulative" else self.ever0.view(np.uint8)
         self.age = np.array(age, np.int32)          # updated in place (a cell reads its own age only)
         self.u = np.empty(0)
         self.active = False                         # on the activity-tracking step
+        self.wait, self.backoff = 0, 1              # dense steps before the next tracking attempt
         self.share = 1.0                            # cells evaluated by the last step / n
         self.inc = graph.incoming                   # the cells listing each cell
         self.inc_indices = compact_indices(self.inc)
@@ -164,89 +207,145 @@ class LifeRun:
     def alive(self) -> np.ndarray:
         return self.buf[:-1].view(bool)
 
+    @property
+    def ever(self) -> np.ndarray:
+        """The cells ever alive (a new array when derived from the age)."""
+        return self.ever0 if self.ever_buf is not None else self.ever0 | (self.age > 0)
+
     def draws(self) -> np.ndarray:
         """The buffer the birth draws go to (one uniform per cell)."""
-        if self.u.size != self.ever.size:
-            self.u = np.empty(self.ever.size)
+        if self.u.size != self.age.size:
+            self.u = np.empty(self.age.size)
         return self.u
 
     def step(self, birth_p: np.ndarray | None = None) -> bool:
         """One generation; ``birth_p``: per-cell birth probability with the draws in
         :meth:`draws` (the numpy path's ``new &= alive | (u < p)``).  True if a cell changed."""
         u = None if birth_p is None else self.u
-        n = self.ever.size
+        n = self.age.size
         if self.active:
             self.share = self.nunstable / max(n, 1)
             changed, self.nunstable = _active_step(
                 self.inc.indptr, self.inc_indices, self.buf, self.count, *self.rule, self.present, u,
                 birth_p, self.unstable, self.nunstable, self.flipped, self.mark)
-            _age_pass(self.buf, self.ever.view(np.uint8), self.age, *self.age_rule)
+            _age_pass(self.buf, self.ever_buf, self.age, self.mode)
             if self.nunstable > 2 * self.ACTIVE_SHARE * n:     # (hysteresis: no switching to and fro)
                 self.active = False
             return changed > 0
         self.share = 1.0
         changed = self.nb.step(self.buf, self.rule, self.spare, self.present, u, birth_p,
-                               self.ever.view(np.uint8), self.age, self.age_rule)
+                               self.ever_buf, self.age, self.mode)
         self.buf, self.spare = self.spare, self.buf
         if changed <= self.ACTIVE_SHARE * n:
-            self._start_tracking()
+            if self.wait:
+                self.wait -= 1
+            else:
+                self._start_tracking()
         return changed > 0
 
     def _start_tracking(self) -> None:
         """Counts and the unstable list from the current state (one dense gather)."""
-        n = self.ever.size
-        nb = self.nb
-        if nb.table.shape[1]:
-            _count_rows(nb.table, self.buf, *self.rule, self.present, self.count, self.flag)
-        else:
-            _count_csr(nb.indptr, nb.indices, self.buf, *self.rule, self.present, self.count, self.flag)
+        n = self.age.size
+        self.nb.count(self.buf, self.rule, self.present, self.count, self.flag)
         self.nunstable = _compact(self.flag, self.unstable)
         self.active = self.nunstable <= self.ACTIVE_SHARE * n
+        # a failed attempt cost a dense pass: where few cells change per step but more are
+        # unstable (birth draws holding cells back, or a churning rule), wait 1, 2, 4 .. 64
+        # dense steps before the next one instead of paying it every step
+        self.wait = 0 if self.active else self.backoff
+        self.backoff = 1 if self.active else min(2 * self.backoff, 64)
 
 
-# Two loops (fixed rows or CSR) around one inlined cell update: each cell writes only its own
-# slots and reads only the previous state, so the parallel loops give the serial result.  The
-# optional parts (presence, birth draws, ever/age) are None when off: numba compiles one
-# version per combination with the part removed, so no cell pays a test or a read for it.
+# Two cell loops (the compact fixed rows, or CSR) around one inlined cell update: each cell
+# writes only its own slots and reads only the previous state, so the parallel loops give the
+# serial result.  The optional parts (presence, birth draws, ever, age) are None when off:
+# numba compiles one version per combination with the part removed, so no cell pays a test or
+# a read for it.
 
 @njit(cache=True, nogil=True, inline="always")
-def _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
+def _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, mode):
     """Cell c's next state from its live-neighbour count k: table bit 2k + state of ``code``,
     presence, birth draw (a birth happens only where u < p), ever-alive and age; a part given
     as None is compiled out.  Returns 1 when the state changed."""
+    c = np.uint64(c)                       # (unsigned indices: numba adds no negative wraparound)
     ac = np.int64(a[c])
     v = (code >> (2 * min(k, cap) + ac)) & 1
     if present is not None:
         v &= np.int64(present[c])
     if u is not None:
         v &= ac | np.int64(u[c] < p[c])
-    if ever is not None:
-        ev = np.int64(ever[c]) | v
-        ever[c] = ev
-        age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
+    _age(c, v, ever, age, mode)
     out[c] = v
     return v ^ ac
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _age(c, v, ever, age, mode):
+    """ever |= v and the age step of the mode (:data:`AGE_MODES`) at cell c; None: not kept."""
+    ev = np.int64(0)
+    if ever is not None:
+        ev = np.int64(ever[c]) | v
+        ever[c] = ev
+    if age is not None:
+        if len(mode) == 1:                 # cumulative: +1 per step alive
+            age[c] += np.int32(v)
+        elif len(mode) == 2:               # consecutive: +1 per step alive, 0 on death
+            age[c] = (age[c] + np.int32(1)) * np.int32(v)
+        else:                              # since_first: +1 per step once ever alive
+            age[c] += np.int32(ev)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _gather(ks, delta, a, c):
+    """Live neighbours of a plain row of the compact layout.  Unsigned indices: numba adds a
+    test for negative (from-the-end) indices per signed read (about half the time); the row
+    length is ``len(ks)`` (a tuple: a compile-time constant, so the loop is unrolled)."""
+    k = 0
+    for s in range(len(ks)):
+        k += a[np.uint64(c + delta[c, s])]
+    return k
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _gather_ids(ks, table, a, j):
+    """Live neighbours of row j of an int32 id table (an escape row)."""
+    k = 0
+    for s in range(len(ks)):
+        k += a[np.uint64(table[j, s])]
+    return k
+
+
 @njit(cache=True, nogil=True, parallel=True)
-def _rule_rows(table, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
+def _rule_compact(ks, delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, u, p, out,
+                  ever, age, mode):
+    """The fused step over the compact layout (:class:`Neighbours`), in parallel over blocks."""
+    n = delta.shape[0]
     changed = 0
-    for c in prange(table.shape[0]):
-        k = 0
-        for s in range(table.shape[1]):
-            k += a[table[c, s]]
-        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset)
+    for b in prange(esc_ptr.size - 1):
+        lo = b * block
+        hi = min(lo + block, n)
+        ch = 0
+        for j in range(esc_ptr[b], esc_ptr[b + 1] + 1):
+            stop = esc_rows[j] if j < esc_ptr[b + 1] else hi
+            for c in range(lo, stop):
+                ch += _step_cell(c, _gather(ks, delta, a, c), a, code, cap, present, u, p, out, ever,
+                                 age, mode)
+            if stop < hi:
+                ch += _step_cell(stop, _gather_ids(ks, esc_table, a, j), a, code, cap, present, u, p,
+                                 out, ever, age, mode)
+            lo = stop + 1
+        changed += ch
     return changed
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _rule_csr(indptr, indices, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset):
+def _rule_csr(indptr, indices, a, code, cap, present, u, p, out, ever, age, mode):
     changed = 0
     for c in prange(indptr.size - 1):
         k = 0
         for e in range(indptr[c], indptr[c + 1]):
             k += a[indices[e]]
-        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, i_alive, i_one, i_ever, reset)
+        changed += _step_cell(c, k, a, code, cap, present, u, p, out, ever, age, mode)
     return changed
 
 # --------------------------------------------------------------------------------------------
@@ -392,13 +491,22 @@ def _outcome(c, k, ac, code, cap, present):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _count_rows(table, a, code, cap, present, count, flag):
-    for c in prange(table.shape[0]):
-        k = 0
-        for s in range(table.shape[1]):
-            k += a[table[c, s]]
-        count[c] = k
-        flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+def _count_compact(ks, delta, esc_rows, esc_table, esc_ptr, block, a, code, cap, present, count, flag):
+    n = delta.shape[0]
+    for b in prange(esc_ptr.size - 1):
+        lo = b * block
+        hi = min(lo + block, n)
+        for j in range(esc_ptr[b], esc_ptr[b + 1] + 1):
+            stop = esc_rows[j] if j < esc_ptr[b + 1] else hi
+            for c in range(lo, stop):
+                k = _gather(ks, delta, a, c)
+                count[c] = k
+                flag[c] = _outcome(c, k, np.int64(a[c]), code, cap, present) != a[c]
+            if stop < hi:
+                k = _gather_ids(ks, esc_table, a, j)
+                count[stop] = k
+                flag[stop] = _outcome(stop, k, np.int64(a[stop]), code, cap, present) != a[stop]
+            lo = stop + 1
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -462,10 +570,8 @@ def _active_step(inc_ptr, inc_idx, a, count, code, cap, present, u, p, unstable,
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _age_pass(a, ever, age, i_alive, i_one, i_ever, reset):
-    """ever |= state and the age update of :func:`_step_cell`, over every cell."""
-    for c in prange(ever.size):
-        v = np.int64(a[c])
-        ev = np.int64(ever[c]) | v
-        ever[c] = ev
-        age[c] = (age[c] + np.int32(i_alive * v + i_one + i_ever * ev)) * np.int32(1 - reset * (1 - v))
+def _age_pass(a, ever, age, mode):
+    """ever |= state and the age update of :func:`_step_cell`, over every cell (``ever`` None:
+    not kept)."""
+    for c in prange(age.size):
+        _age(np.uint64(c), np.int64(a[c]), ever, age, mode)

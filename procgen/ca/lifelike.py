@@ -207,7 +207,7 @@ class LifeLike(StateAutomaton):
                 p = self.birth_probability(dom)
                 state.rng().random(out=run.draws())
             changed = run.step(p)
-            self._alive, self._ever, self._age = run.alive, run.ever, run.age
+            self._alive, self._age = run.alive, run.age     # (run.ever: read at the end only)
             self._write(dom)
             return changed
         new = life_step(self._graph, self._alive, self._lut) & self._present
@@ -222,5 +222,6 @@ class LifeLike(StateAutomaton):
 
     def finish(self, state: State) -> None:
         n = max(len(self._alive), 1)
+        ever = self._ever if self._run is None else self._run.ever
         state.report(f"{self.cells}.{self.field}.live_fraction", float(self._alive.sum() / n))
-        state.report(f"{self.cells}.{self.field}.ever_alive_fraction", float(self._ever.sum() / n))
+        state.report(f"{self.cells}.{self.field}.ever_alive_fraction", float(ever.sum() / n))
