@@ -11,10 +11,11 @@ import pytest
 
 from procgen import InputError, Polylines
 import svgelements
+import shapely
 from shapely import Polygon
 
-from procgen_snaxel.cloudscape_svg import (DEPTH_REACH, DEPTH_STEPS, GROUND_REACH, cloudscape_svg, light_depth,
-                                           occlusion, rounded)
+from procgen_snaxel.cloudscape_svg import (DEPTH_REACH, DEPTH_STEPS, GROUND_REACH, NECK_FLOOR, broaden,
+                                           cloudscape_svg, light_depth, neck_ratio, occlusion, round_sides, rounded)
 from procgen_snaxel.growth import CloudGrowth
 from procgen_snaxel.tessellate import poisson_tessellation
 
@@ -282,3 +283,101 @@ def test_procgen_check_names_a_wrong_outline_before_any_growth(host, tmp_path):
     bad.write_text(text.replace('outline = "rounded"', 'outline = "smooth"'))
     with pytest.raises(RecipeError, match="outline.*smooth"):
         load_recipe(bad, host)
+
+
+def _chords(p: np.ndarray, y: float) -> float:
+    """Cross-section length at height y, from the outline's edge crossings (no shapely)."""
+    a, b = p, np.roll(p, -1, axis=0)
+    hit = (a[:, 1] - y) * (b[:, 1] - y) < 0
+    t = (y - a[hit, 1]) / (b[hit, 1] - a[hit, 1])
+    xs = np.sort(a[hit, 0] + t * (b[hit, 0] - a[hit, 0]))
+    return float((xs[1::2] - xs[0::2]).sum())
+
+
+def _narrowest(p: np.ndarray, rows: int = 200) -> float:
+    """Independent neck measure: min over heights (above NECK_FLOOR) of the chord over the widest chord above."""
+    y0, y1 = p[:, 1].min(), p[:, 1].max()
+    ys = np.linspace(y0 + NECK_FLOOR * (y1 - y0), y1, rows + 1)[:-1] + 1e-7
+    w = np.array([_chords(p, y) for y in ys])
+    return float((w / np.maximum.accumulate(w[::-1])[::-1]).min())
+
+
+def _tower(x: float = 60.0) -> np.ndarray:
+    """A broad flat base 80 wide and 10 tall, a neck 8 wide and 20 tall, a round head 40 across on top."""
+    base = shapely.box(x - 40, 0, x + 40, 10)
+    neck = shapely.box(x + 10, 5, x + 18, 32)
+    head = shapely.Point(x + 14, 48).buffer(20, quad_segs=16)
+    poly = shapely.orient_polygons(shapely.union_all([base, neck, head]))
+    return np.asarray(poly.exterior.coords)[:-1]
+
+
+def test_a_tower_on_a_narrow_neck_is_broadened_into_a_broad_based_heap():
+    tower = _tower()
+    assert neck_ratio(tower) == pytest.approx(_narrowest(tower), abs=0.03) and _narrowest(tower) < 0.25
+    heap = broaden(tower)
+    assert _narrowest(heap) > 0.97                                   # no level wider than one below it
+    assert Polygon(heap).buffer(1e-6).contains(Polygon(tower))       # filled, nothing of the cloud cut
+    assert heap[:, 1].min() == pytest.approx(0.0) and heap[:, 1].max() == pytest.approx(tower[:, 1].max())
+    assert Polygon(heap).exterior.is_ccw
+    dome = np.column_stack([50 + 30 * np.cos(np.linspace(0, np.pi, 40)), 30 * np.sin(np.linspace(0, np.pi, 40))])
+    assert neck_ratio(dome) > 0.97                                   # a dome has no neck
+
+
+def test_round_sides_removes_the_growth_domains_wall():
+    a = np.linspace(-np.pi / 2, np.pi / 2, 40)
+    walled = np.vstack([np.column_stack([30 * np.cos(a), 20 + 20 * np.sin(a)]), [[0, 40], [0, 0]]])  # cut at x = 0
+    free = round_sides(walled)
+    h = np.ptp(free[:, 1])
+    side = free[np.abs(free[:, 0] - free[:, 0].min()) <= 0.002 * np.ptp(free[:, 0]), 1]
+    assert np.ptp(side) < 0.25 * h and free[:, 0].min() < -3.0          # a curved bulge, not a wall 40 tall
+    assert Polygon(free).buffer(1e-6).contains(Polygon(walled)) and free[:, 1].min() >= -1e-9   # base kept flat
+    b = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    disc = np.column_stack([50 + 20 * np.cos(b), 20 + 20 * np.sin(b)])
+    assert np.array_equal(round_sides(disc), disc)                   # nothing flat: unchanged
+
+
+def _edge_scape(**kw) -> tuple[ET.Element, bytes]:
+    """Two clouds grown against the left and right walls of a 300 x 100 domain, one with a tower on a neck."""
+    a = np.linspace(-np.pi / 2, np.pi / 2, 30)
+    left = np.vstack([np.column_stack([2 + 40 * np.cos(a), 50 + 16 * np.sin(a)]), [[2, 66], [2, 34]]])
+    right = _tower(262.0)
+    dom = Polylines.from_list([left, right], closed=True, bounds=(0.0, 300.0, 0.0, 100.0))
+    dom.add_field("cloud__depth", np.array([1, 0]), at="line")
+    dom.add_field("snaxel__curve", np.concatenate([np.arange(len(left)) // 6, np.arange(len(right)) // 12]), at="point")
+    raw = cloudscape_svg(dom, horizon=0.2, base_level=0.5, **kw)
+    return ET.fromstring(raw), raw
+
+
+def _drawn_outlines(root: ET.Element) -> dict[str, np.ndarray]:
+    """Each cloud layer's outline (page units) with its layer transform applied."""
+    paths = {p.get("id"): np.array(re.findall(r"(-?[\d.]+),(-?[\d.]+)", p.get("d")), float)
+             for p in root.iter(SVG + "path") if (p.get("id") or "").startswith("outline")}
+    out = {}
+    for g in root.findall(SVG + "g"):
+        label = g.get(INK + "label")
+        if not label.startswith("cloud "):
+            continue
+        tx, ty, sc, sy, nx, ny = (float(v) for v in re.findall(r"-?[\d.]+", g.get("transform")))
+        ref = g.find(f".//{SVG}clipPath") or next(u for u in g.iter(SVG + "use"))
+        ident = next(u.get("{http://www.w3.org/1999/xlink}href") or u.get("href") for u in g.iter(SVG + "use"))[1:]
+        p = paths[ident]
+        out[label] = np.column_stack([tx + sc * (p[:, 0] + nx), ty + sy * (p[:, 1] + ny)])
+    return out
+
+
+def test_clouds_stay_whole_inside_the_frame_unless_bleed_and_necks_are_repaired():
+    root, raw = _edge_scape(neck=0.6, frame_margin=0.03)
+    assert raw == _edge_scape(neck=0.6, frame_margin=0.03)[1]         # byte-identical for the same input
+    drawn = _drawn_outlines(root)
+    assert len(drawn) == 2
+    for p in drawn.values():                                         # whole clouds inside the page by the margin
+        assert p[:, 0].min() >= 0.03 * 300 - 1e-3 and p[:, 0].max() <= 300 - 0.03 * 300 + 1e-3
+        assert p[:, 1].min() >= 0.03 * 300 - 1e-3
+        model = np.column_stack([p[:, 0], -p[:, 1]])                 # y up for the neck measure
+        assert _narrowest(model) >= 0.6                              # no neck under 60 % of the width above it
+    bled, _ = _edge_scape(neck=0.0, bleed=True)
+    loose = _drawn_outlines(bled)
+    assert min(p[:, 0].min() for p in loose.values()) < 0.03 * 300   # bleed: placed where they grew
+    assert min(_narrowest(np.column_stack([p[:, 0], -p[:, 1]])) for p in loose.values()) < 0.3   # neck kept
+    with pytest.raises(InputError, match="neck"):
+        _edge_scape(neck=1.5)

@@ -30,6 +30,7 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 import shapely
+import shapely.affinity
 
 from procgen import InputError
 from procgen.exchange.svg import finish, fmt_number, path_data
@@ -50,6 +51,20 @@ DEPTH_REACH = 0.45
 
 GROUND_REACH = 0.9
 """How far down the ground band (horizon .. page bottom) the nearest cloud's shadow base lands."""
+
+NECK_SAMPLES = 96
+"""Heights at which :func:`neck_ratio` measures a cloud's cross-section."""
+
+NECK_FLOOR = 0.1
+"""The bottom share of a cloud's height :func:`neck_ratio` leaves out (its base's rounded corners)."""
+
+NECK_SPREAD, BELL_POINTS = 0.3, 7
+"""The bell :func:`broaden` hangs below each point reaches NECK_SPREAD x the cloud's height to either
+side at the base; it is drawn with BELL_POINTS points a side."""
+
+SIDE_TOL, SIDE_RUN = 0.002, 0.15
+"""A flat side: outline points within SIDE_TOL of the cloud's width from its extreme x, spanning at
+least SIDE_RUN of its height."""
 
 Outline = Literal["snaxel", "rounded"]
 """The thesis's snaxel contour, or that contour rounded by :func:`rounded` (``procgen check`` reads this)."""
@@ -107,12 +122,105 @@ def rounded(pts: np.ndarray, radius: float) -> np.ndarray:
     the disc are cut, notches narrower than it filled, every convex corner rounded. The largest
     part's exterior, counter-clockwise like the snake (model, y up)."""
     poly = shapely.make_valid(shapely.Polygon(pts))
-    soft = poly.buffer(-radius, quad_segs=4).buffer(2 * radius, quad_segs=4).buffer(-radius, quad_segs=4)
-    parts = [g for g in getattr(soft, "geoms", [soft]) if isinstance(g, shapely.Polygon) and not g.is_empty]
-    if not parts:
+    return _largest_ccw(poly.buffer(-radius, quad_segs=4).buffer(2 * radius, quad_segs=4).buffer(-radius, quad_segs=4),
+                        pts)
+
+
+def chord_widths(pts: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Length of the outline's horizontal cross-section (all its pieces) at each height in ``ys``."""
+    poly = shapely.make_valid(shapely.Polygon(pts))
+    x0, _, x1, _ = poly.bounds
+    rows = np.stack([np.column_stack([np.full(len(ys), x0 - 1.0), ys]),
+                     np.column_stack([np.full(len(ys), x1 + 1.0), ys])], axis=1)
+    return shapely.length(shapely.intersection(shapely.linestrings(rows), poly))
+
+
+def neck_ratio(pts: np.ndarray, samples: int = NECK_SAMPLES) -> float:
+    """The narrowest cross-section over the widest one at or above it (0..1), above the bottom
+    NECK_FLOOR of the height. A domed, broad-based cumulus is about 1 (no level wider than one below
+    it); a tower on a narrow neck is small."""
+    y0, y1 = pts[:, 1].min(), pts[:, 1].max()
+    w = chord_widths(pts, np.linspace(y0 + NECK_FLOOR * (y1 - y0), y1, samples + 1)[:-1])
+    above = np.maximum.accumulate(w[::-1])[::-1]
+    return float(np.min(w / np.maximum(above, 1e-12)))
+
+
+def broaden(pts: np.ndarray, spread: float = NECK_SPREAD) -> np.ndarray:
+    """The outline with a bell below every point added down to its base: the Minkowski sum with
+    the convex region |x| <= spread sqrt(depth x height), so each level is at least as wide as any
+    level above it (necks and overhangs filled, the base flat) and the filled flanks round out
+    from under the overhang like a cumulus's shoulders. Counter-clockwise, model y up."""
+    poly = shapely.make_valid(shapely.Polygon(pts))
+    x0, base, x1, top = poly.bounds
+    h = top - base
+    a = np.asarray(shapely.simplify(poly, 0.002 * h).exterior.coords)[:-1] if isinstance(poly, shapely.Polygon) else pts
+    b = np.roll(a, -1, axis=0)
+    d = h * np.linspace(0.0, 1.0, BELL_POINTS) ** 2
+    half = spread * np.sqrt(d * h)
+    bell = np.concatenate([np.column_stack([-half, -d]), np.column_stack([half, -d])])          # (2k, 2)
+    corners = np.concatenate([a[:, None, :] + bell[None], b[:, None, :] + bell[None]], axis=1)  # (n, 4k, 2)
+    bells = shapely.convex_hull(shapely.multipoints(corners))
+    filled = shapely.union_all(np.append(bells, poly)).intersection(
+        shapely.box(x0 - 2 * spread * h - 1, base, x1 + 2 * spread * h + 1, top))
+    return _largest_ccw(filled, pts)
+
+
+def round_sides(pts: np.ndarray) -> np.ndarray:
+    """Flat vertical sides (a cloud that grew against the domain's wall: a run at its leftmost or
+    rightmost x at least SIDE_RUN of its height tall) swapped for a half-ellipse bulge, so no
+    cloud shows the cut of the growth domain."""
+    poly = shapely.make_valid(shapely.Polygon(pts))
+    x0, base, x1, top = poly.bounds
+    w, h = x1 - x0, top - base
+    tol = SIDE_TOL * w
+    bulges = []
+    for edge, sign in ((x0, -1.0), (x1, 1.0)):
+        on = pts[np.abs(pts[:, 0] - edge) <= tol, 1]
+        if len(on) and np.ptp(on) >= SIDE_RUN * h:
+            lo, hi = on.min(), on.max()
+            disc = shapely.Point(edge, 0.5 * (lo + hi)).buffer(1.0, quad_segs=8)
+            bulges.append(shapely.affinity.scale(disc, 0.2 * (hi - lo), 0.5 * (hi - lo), origin=(edge, 0.5 * (lo + hi))))
+    if not bulges:
         return pts
+    grown = shapely.union_all([poly, *bulges]).intersection(
+        shapely.box(x0 - w, base, x1 + w, top))
+    return _largest_ccw(grown, pts)
+
+
+def _largest_ccw(geom: Any, fallback: np.ndarray) -> np.ndarray:
+    parts = [g for g in getattr(geom, "geoms", [geom]) if isinstance(g, shapely.Polygon) and not g.is_empty]
+    if not parts:
+        return fallback
     best = shapely.orient_polygons(max(parts, key=lambda g: g.area))
     return np.asarray(best.exterior.coords)[:-1]
+
+
+def silhouette(pts: np.ndarray, outline: str, radius: float, neck: float, whole: bool) -> np.ndarray:
+    """The outline a cloud is drawn with: flat sides cut by the growth domain rounded (``whole``),
+    rounded by a disc of ``radius`` (``outline = "rounded"``), and, when its :func:`neck_ratio` is
+    under ``neck``, broadened (:func:`broaden`) and rounded again: no tower on a narrow neck."""
+    shape = round_sides(pts) if whole else pts
+    soft = (lambda p: rounded(p, radius)) if outline == "rounded" else (lambda p: p)
+    shape = soft(shape)
+    if neck > 0 and neck_ratio(shape) < neck:
+        shape = soft(broaden(shape))
+    return shape
+
+
+def framed(drawn: np.ndarray, qx: float, qy: float, ty: float, sc: float, sy: float, page_w: float,
+           margin: float) -> tuple[float, float, float]:
+    """(sc, sy, dx) keeping a cloud whole inside the page by ``margin``: scaled down about its base
+    if its top would rise above the margin, shifted sideways (``dx``) off the left and right
+    margins (centred when wider than the room between them). ``drawn``: its page outline before
+    the layer's transform translate(qx + dx, ty) scale(sc, sy) translate(-qx, -qy)."""
+    top = ty + sy * (drawn[:, 1].min() - qy)
+    if top < margin < ty:
+        f = (ty - margin) / (ty - top)
+        sc, sy = sc * f, sy * f
+    lo, hi = qx + sc * (drawn[:, 0].min() - qx), qx + sc * (drawn[:, 0].max() - qx)
+    if hi - lo > page_w - 2 * margin:
+        return sc, sy, 0.5 * page_w - 0.5 * (lo + hi)
+    return sc, sy, max(margin - lo, 0.0) + min(page_w - margin - hi, 0.0)
 
 
 def ground_projection(sun3: np.ndarray, y_h: float, y_g: float, y_b: float, page_h: float) -> tuple[float, ...]:
@@ -162,7 +270,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
                    self_shadow: float = 0.5, silver: float = 0.9, thin_edge: float = 0.012,
                    outline: Outline = "snaxel", round_radius: float = 0.03, texture: float = 0.0,
                    haze_clouds: int = 0, ground: str | None = None, ground_shadow: float = 0.35,
-                   title: str = "") -> bytes:
+                   neck: float = 0.0, bleed: bool = False, frame_margin: float = 0.02, title: str = "") -> bytes:
     """Clouds as an illustrator draws them, back to front, one Inkscape layer per cloud.
 
     Each cloud's outline is the snaxel contour (``outline = "snaxel"``, the thesis) or that
@@ -196,7 +304,8 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
     if haze_clouds and horizon is None:
         raise InputError("cloudscape_svg: haze_clouds needs a horizon (a fraction of the page height)")
     for name, v in (("self_shadow", self_shadow), ("silver", silver), ("thin_edge", thin_edge),
-                    ("ground_shadow", ground_shadow), ("texture", texture), ("round_radius", round_radius)):
+                    ("ground_shadow", ground_shadow), ("texture", texture), ("round_radius", round_radius),
+                    ("neck", neck), ("frame_margin", frame_margin)):
         if not 0.0 <= v <= 1.0:
             raise InputError(f"cloudscape_svg: {name} = {v!r}: expected 0..1")
     if outline not in get_args(Outline):
@@ -239,8 +348,8 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
     heights = np.array([np.ptp(dom.points[dom.offsets[i]:dom.offsets[i + 1], 1]) for i in range(len(depth))])
     shapes = []
     for i in range(len(depth)):     # each outline once, in defs; every other use is a <use> clone
-        pts = dom.points[dom.offsets[i]:dom.offsets[i + 1]]
-        shapes.append(rounded(pts, round_radius * heights[i]) if outline == "rounded" else pts)
+        shapes.append(silhouette(dom.points[dom.offsets[i]:dom.offsets[i + 1]], outline, round_radius * heights[i],
+                                 neck, whole=not bleed))
         dwg.defs.add(dwg.path(d=page.d(shapes[-1]), id=f"outline{i}"))
     if haze_clouds:
         _haze(dwg, page, dom, heights, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
@@ -255,7 +364,10 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         top = mix(lit, sky_horizon, 0.45 * far)
         bottom = mix(shade, sky_horizon, 0.55 * far)
         ty = qy if horizon is None else page.h * (1.0 - horizon - sc * (base_level - horizon))
-        tf = (sc, 0.0, 0.0, sy, qx - sc * qx, ty - sy * qy)
+        dx = 0.0
+        if not bleed:
+            sc, sy, dx = framed(page.xy(shapes[i]), qx, qy, ty, sc, sy, page.w, frame_margin * page.w)
+        tf = (sc, 0.0, 0.0, sy, qx + dx - sc * qx, ty - sy * qy)
         if land is not None:
             y_g = y_h + GROUND_REACH * (page.h - y_h) * sc
             sh = _compose(ground_projection(sun3, y_h, y_g, ty, page.h), tf)
@@ -263,7 +375,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
             land.add(dwg.use(f"#outline{i}", transform=_matrix(sh), fill=mix(ground, "#000000", 0.55),
                              fill_opacity=fmt_number(ground_shadow), filter=_blur(dwg, f"ground-shadow{i}", std),
                              id=f"shadow-of-cloud-{int(i) + 1}"))
-        attrs: dict[str, Any] = {"transform": f"translate({fmt_number(qx)},{fmt_number(ty)}) scale({fmt_number(sc)},"
+        attrs: dict[str, Any] = {"transform": f"translate({fmt_number(qx + dx)},{fmt_number(ty)}) scale({fmt_number(sc)},"
                                               f"{fmt_number(sy)}) translate({fmt_number(-qx)},{fmt_number(-qy)})"}
         if soft > 0:
             attrs["filter"] = _blur(dwg, f"soft{i}", soft * height)
@@ -299,8 +411,8 @@ def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: n
         for s in depth_shifts(sun, height):
             g.add(dwg.use(ref, transform=f"translate({fmt_number(s[0])},{fmt_number(-s[1])})", fill=bottom,
                           fill_opacity=fmt_number(0.5 * self_shadow), filter=blur))
-    x0, y0 = page.xy(np.array([[pts[:, 0].min(), pts[:, 1].max()]]))[0]
-    box = {"insert": (fmt_number(x0), fmt_number(y0)), "size": (fmt_number(np.ptp(pts[:, 0])), fmt_number(height))}
+    x0, y0 = page.xy(np.array([[shape[:, 0].min(), shape[:, 1].max()]]))[0]
+    box = {"insert": (fmt_number(x0), fmt_number(y0)), "size": (fmt_number(np.ptp(shape[:, 0])), fmt_number(np.ptp(shape[:, 1])))}
     if texture > 0:
         g.add(dwg.rect(**box, fill=bottom, filter=_texture(dwg, i, height, sun, bottom, texture)))
     base = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"base{i}")
