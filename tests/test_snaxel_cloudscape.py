@@ -12,6 +12,7 @@ import pytest
 from procgen import InputError, Polylines
 import svgelements
 import shapely
+import shapely.affinity
 from shapely import Polygon
 
 from procgen_snaxel.cloudscape_svg import (DEPTH_REACH, DEPTH_STEPS, GROUND_REACH, NECK_FLOOR, broaden,
@@ -215,7 +216,7 @@ def test_ground_shadow_is_the_clouds_outline_projected_along_the_sun(tmp_path):
         _scape(outline="smooth")
 
 
-def test_horizon_clouds_are_smaller_paler_and_fixed_by_the_outlines():
+def test_horizon_clouds_are_smaller_paler_pairwise_different_and_fixed_by_the_outlines():
     kw = dict(horizon=0.2, base_level=0.5, haze_clouds=12, perspective=0.4, sky_horizon="#c9def2")
     root, raw = _scape(**kw)
     assert raw == _scape(**kw)[1]                                   # same outlines, same haze, byte for byte
@@ -226,6 +227,7 @@ def test_horizon_clouds_are_smaller_paler_and_fixed_by_the_outlines():
     assert len(subs) == 12 and all(g.get(INK + "groupmode") == "layer" for g in subs)
     far = [g for g in root.findall(SVG + "g") if g.get(INK + "label") == "cloud 1 (depth 0)"][0]
     far_scale = float(re.findall(r"-?[\d.]+", far.get("transform"))[2])
+    far_w = 40.0 * far_scale                                        # the far test cloud is 40 wide
     stops = _stops(root)
     sky = np.array([int("c9def2"[k:k + 2], 16) for k in (0, 2, 4)])
 
@@ -234,14 +236,22 @@ def test_horizon_clouds_are_smaller_paler_and_fixed_by_the_outlines():
         return float(np.abs(np.array([int(c[k:k + 2], 16) for k in (1, 3, 5)]) - sky).sum())
 
     y_h = 90.0 * 0.8
+    shapes = []
     for g in subs:
-        u = g.find(SVG + "use")
-        m = [float(v) for v in re.findall(r"-?[\d.]+", u.get("transform"))]
-        assert abs(m[0]) < 0.6 * far_scale and 0 < m[3] < abs(m[0])    # smaller than the far cloud, and flatter
-        assert paleness(u.get("fill")[5:-1]) < paleness("body0")          # paler than the far cloud
+        p = g.find(SVG + "path")
+        pts = np.array(re.findall(r"(-?[\d.]+),(-?[\d.]+)", p.get("d")), float)
+        assert np.ptp(pts[:, 0]) < 0.6 * far_w and pts[:, 1].max() <= y_h + 0.05    # smaller, above the horizon
+        assert paleness(p.get("fill")[5:-1]) < paleness("body0")                      # paler than the far cloud
+        pts = (pts - pts.min(0)) / np.ptp(pts, axis=0)                                # unit box: no stretch hides a clone
+        shapes.append(Polygon(pts).buffer(0))
+    for a in range(len(shapes)):                                    # no two alike, even mirrored
+        for b in range(a):
+            mirrored = shapely.affinity.scale(shapes[b], -1.0, 1.0, origin=(0.5, 0.0))
+            diff = min(shapes[a].symmetric_difference(shapes[b]).area, shapes[a].symmetric_difference(mirrored).area)
+            assert diff > 0.05 * max(shapes[a].area, shapes[b].area)
     moved, _ = _scape(**kw, sun_x=-0.5)
-    assert moved.findall(SVG + "g")[1].findall(SVG + "g")[0].find(SVG + "use").get("transform") == \
-        subs[0].find(SVG + "use").get("transform")                      # not the light: the outlines fix them
+    assert moved.findall(SVG + "g")[1].findall(SVG + "g")[0].find(SVG + "path").get("d") == \
+        subs[0].find(SVG + "path").get("d")                           # not the light: the outlines fix them
     with pytest.raises(InputError, match="haze_clouds"):
         _scape(horizon=None, haze_clouds=3)
 

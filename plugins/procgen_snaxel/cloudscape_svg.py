@@ -66,6 +66,9 @@ SIDE_TOL, SIDE_RUN = 0.002, 0.15
 """A flat side: outline points within SIDE_TOL of the cloud's width from its extreme x, spanning at
 least SIDE_RUN of its height."""
 
+HAZE_BLUR = 0.6
+"""Blur (page units) softening the horizon clouds' edges."""
+
 Outline = Literal["snaxel", "rounded"]
 """The thesis's snaxel contour, or that contour rounded by :func:`rounded` (``procgen check`` reads this)."""
 
@@ -352,7 +355,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
                                  neck, whole=not bleed))
         dwg.defs.add(dwg.path(d=page.d(shapes[-1]), id=f"outline{i}"))
     if haze_clouds:
-        _haze(dwg, page, dom, heights, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
+        _haze(dwg, page, dom, shapes, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
               lit, shade, sky_horizon)
     for i in np.argsort(depth, kind="stable"):
         far = 1.0 - (float(depth[i]) / (n - 1) if n > 1 else 1.0)
@@ -448,34 +451,46 @@ def _texture(dwg: Any, i: int, height: float, sun: np.ndarray, colour: str, stre
     return f"url(#texture{i})"
 
 
-def _haze(dwg: Any, page: Page, dom: Any, heights: np.ndarray, count: int, y_h: float, perspective: float,
-          flatten: float, base_rise: float, lit: str, shade: str, sky_horizon: str) -> None:
-    """``count`` small far clouds above the horizon: clones of the grown outlines at 12-60 % of the
-    farthest cloud's scale, on the same condensation plane (so smaller sits lower), flatter and
-    paler the farther; a layer "horizon clouds" with one sub-layer per cloud, farthest first."""
+def haze_shape(outline: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A far cloud of its own cut from a grown outline: a random 45-100 % of its width (the part in a
+    random vertical band), the cut sides bulged by :func:`round_sides`, simplified to 0.5 % of the
+    width (a few dozen points). Counter-clockwise, model y up."""
+    poly = shapely.make_valid(shapely.Polygon(outline))
+    x0, y0, x1, y1 = poly.bounds
+    w = (x1 - x0) * rng.uniform(0.45, 1.0)
+    a = x0 + (x1 - x0 - w) * rng.uniform()
+    piece = _largest_ccw(poly.intersection(shapely.box(a, y0 - 1, a + w, y1 + 1)), outline)
+    out = round_sides(piece)
+    return _largest_ccw(shapely.simplify(shapely.Polygon(out), 0.005 * np.ptp(out[:, 0])), out)
+
+
+def _haze(dwg: Any, page: Page, dom: Any, shapes: list[np.ndarray], count: int, y_h: float,
+          perspective: float, flatten: float, base_rise: float, lit: str, shade: str, sky_horizon: str) -> None:
+    """``count`` small far clouds above the horizon, each its own :func:`haze_shape` (a cut of a
+    drawn outline, mirrored at random) drawn at 12-60 % of the farthest cloud's scale, on the
+    same condensation plane (so smaller sits lower), flatter and paler the farther; a layer
+    "horizon clouds" with one sub-layer per cloud, farthest first."""
     rng = _hash_rng(dom.points)
-    k = len(heights)
     u = np.sort(rng.uniform(0.12, 0.6, count))
-    src = rng.integers(0, k, count)
+    src = rng.integers(0, len(shapes), count)
     flip = rng.choice([-1.0, 1.0], count)
     xs = rng.uniform(0.0, page.w, count)
     group = page.layer("horizon clouds")
-    blurs = {}
+    blur = _blur(dwg, "haze-blur", HAZE_BLUR)
     for j in range(count):
+        shape = haze_shape(shapes[src[j]], rng)
         s = (1.0 - perspective) * u[j]
-        pts = dom.points[dom.offsets[src[j]]:dom.offsets[src[j] + 1]]
-        (qx, qy) = page.xy(np.array([[pts[:, 0].mean(), pts[:, 1].min()]]))[0]
         sx, sy = flip[j] * s, s * (1.0 - flatten) * (0.5 + 0.5 * u[j])
+        cx, base = 0.5 * (shape[:, 0].min() + shape[:, 0].max()), shape[:, 1].min()
         ty = y_h - s * base_rise * page.h
+        drawn = np.column_stack([xs[j] + sx * (shape[:, 0] - cx), ty - sy * (shape[:, 1] - base)])
         pale = 1.0 - u[j]
         grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"haze{j}")
         grad.add_stop_color(0.0, mix(lit, sky_horizon, 0.35 + 0.5 * pale))
         grad.add_stop_color(1.0, mix(shade, sky_horizon, 0.55 + 0.4 * pale))
         dwg.defs.add(grad)
-        if src[j] not in blurs:
-            blurs[src[j]] = _blur(dwg, f"haze-blur{src[j]}", 0.03 * heights[src[j]])
-        page.sublayer(group, f"horizon cloud {j + 1}", f"horizon-cloud-{j + 1}").add(dwg.use(f"#outline{src[j]}", transform=_matrix((sx, 0.0, 0.0, sy, xs[j] - sx * qx, ty - sy * qy)),
-                        fill=f"url(#haze{j})", filter=blurs[src[j]]))
+        page.sublayer(group, f"horizon cloud {j + 1}", f"horizon-cloud-{j + 1}").add(
+            dwg.path(d=path_data(np.round(drawn, 1), True), fill=f"url(#haze{j})", filter=blur))
 
 
 def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarray, float]], shape: np.ndarray,
