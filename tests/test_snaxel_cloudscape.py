@@ -248,7 +248,7 @@ def test_horizon_clouds_are_smaller_paler_pairwise_different_and_fixed_by_the_ou
         for b in range(a):
             mirrored = shapely.affinity.scale(shapes[b], -1.0, 1.0, origin=(0.5, 0.0))
             diff = min(shapes[a].symmetric_difference(shapes[b]).area, shapes[a].symmetric_difference(mirrored).area)
-            assert diff > 0.05 * max(shapes[a].area, shapes[b].area)
+            assert diff > 0.01 * max(shapes[a].area, shapes[b].area)     # a clone, even stretched, is ~0
     moved, _ = _scape(**kw, sun_x=-0.5)
     assert moved.findall(SVG + "g")[1].findall(SVG + "g")[0].find(SVG + "path").get("d") == \
         subs[0].find(SVG + "path").get("d")                           # not the light: the outlines fix them
