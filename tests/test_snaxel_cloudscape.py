@@ -336,14 +336,15 @@ def test_a_tower_on_a_narrow_neck_is_broadened_into_a_broad_based_heap():
 def test_round_sides_removes_the_growth_domains_wall():
     a = np.linspace(-np.pi / 2, np.pi / 2, 40)
     walled = np.vstack([np.column_stack([30 * np.cos(a), 20 + 20 * np.sin(a)]), [[0, 40], [0, 0]]])  # cut at x = 0
-    free = round_sides(walled)
+    free = round_sides(walled, (0.0, 100.0), 0.5)
     h = np.ptp(free[:, 1])
-    side = free[np.abs(free[:, 0] - free[:, 0].min()) <= 0.002 * np.ptp(free[:, 0]), 1]
-    assert np.ptp(side) < 0.25 * h and free[:, 0].min() < -3.0          # a curved bulge, not a wall 40 tall
+    side = free[np.abs(free[:, 0]) <= 0.5, 1]
+    assert not np.any((side > 0.1 * h) & (side < 0.9 * h)) and free[:, 0].min() < -3.0   # a bulge, no wall left
     assert Polygon(free).buffer(1e-6).contains(Polygon(walled)) and free[:, 1].min() >= -1e-9   # base kept flat
     b = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     disc = np.column_stack([50 + 20 * np.cos(b), 20 + 20 * np.sin(b)])
-    assert np.array_equal(round_sides(disc), disc)                   # nothing flat: unchanged
+    assert np.array_equal(round_sides(disc, (0.0, 100.0), 0.5), disc)    # away from the walls: unchanged
+    assert np.array_equal(round_sides(walled, (-5.0, 100.0), 0.5), walled)   # not at a wall: a flat side kept
 
 
 def _edge_scape(**kw) -> tuple[ET.Element, bytes]:

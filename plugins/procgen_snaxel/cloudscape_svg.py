@@ -62,9 +62,9 @@ NECK_SPREAD, BELL_POINTS = 0.3, 7
 """The bell :func:`broaden` hangs below each point reaches NECK_SPREAD x the cloud's height to either
 side at the base; it is drawn with BELL_POINTS points a side."""
 
-SIDE_TOL, SIDE_RUN = 0.002, 0.15
-"""A flat side: outline points within SIDE_TOL of the cloud's width from its extreme x, spanning at
-least SIDE_RUN of its height."""
+SIDE_TOL, SIDE_RUN = 0.01, 0.15
+"""A side cut by the page's side: consecutive outline points within SIDE_TOL of the page width from
+it, spanning at least SIDE_RUN of the cloud's height."""
 
 HAZE_BLUR = 0.6
 """Blur (page units) softening the horizon clouds' edges."""
@@ -168,26 +168,36 @@ def broaden(pts: np.ndarray, spread: float = NECK_SPREAD) -> np.ndarray:
     return _largest_ccw(filled, pts)
 
 
-def round_sides(pts: np.ndarray) -> np.ndarray:
-    """Flat vertical sides (a cloud that grew against the domain's wall: a run at its leftmost or
-    rightmost x at least SIDE_RUN of its height tall) swapped for a half-ellipse bulge, so no
-    cloud shows the cut of the growth domain."""
+def round_sides(pts: np.ndarray, walls: tuple[float, float], tol: float) -> np.ndarray:
+    """Sides cut flat by a vertical wall (the growth domain's side, or a crop) swapped for a
+    half-ellipse bulge, so no cloud shows the cut: a side is cut where consecutive outline points
+    within ``tol`` of a wall's x span at least SIDE_RUN of the cloud's height."""
     poly = shapely.make_valid(shapely.Polygon(pts))
     x0, base, x1, top = poly.bounds
     w, h = x1 - x0, top - base
-    tol = SIDE_TOL * w
     bulges = []
-    for edge, sign in ((x0, -1.0), (x1, 1.0)):
-        on = pts[np.abs(pts[:, 0] - edge) <= tol, 1]
-        if len(on) and np.ptp(on) >= SIDE_RUN * h:
-            lo, hi = on.min(), on.max()
-            disc = shapely.Point(edge, 0.5 * (lo + hi)).buffer(1.0, quad_segs=8)
-            bulges.append(shapely.affinity.scale(disc, 0.2 * (hi - lo), 0.5 * (hi - lo), origin=(edge, 0.5 * (lo + hi))))
+    for wall in walls:
+        on = _longest_run(pts, np.abs(pts[:, 0] - wall) <= tol)
+        if len(on) and np.ptp(on[:, 1]) >= SIDE_RUN * h:
+            lo, hi, x = on[:, 1].min(), on[:, 1].max(), float(np.median(on[:, 0]))
+            disc = shapely.Point(x, 0.5 * (lo + hi)).buffer(1.0, quad_segs=8)
+            bulges.append(shapely.affinity.scale(disc, 0.2 * (hi - lo), 0.5 * (hi - lo), origin=(x, 0.5 * (lo + hi))))
     if not bulges:
         return pts
     grown = shapely.union_all([poly, *bulges]).intersection(
         shapely.box(x0 - w, base, x1 + w, top))
     return _largest_ccw(grown, pts)
+
+
+def _longest_run(pts: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The points of the tallest run of consecutive ``mask`` points along the closed outline."""
+    if mask.all() or not mask.any():
+        return pts[mask]
+    shift = int(np.flatnonzero(~mask)[0])           # start the cycle outside every run
+    m, p = np.roll(mask, -shift), np.roll(pts, -shift, axis=0)
+    edges = np.diff(np.concatenate([[0], m.astype(np.int8), [0]]))
+    runs = [p[a:b] for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1))]
+    return max(runs, key=lambda r: np.ptp(r[:, 1]))
 
 
 def _largest_ccw(geom: Any, fallback: np.ndarray) -> np.ndarray:
@@ -198,11 +208,13 @@ def _largest_ccw(geom: Any, fallback: np.ndarray) -> np.ndarray:
     return np.asarray(best.exterior.coords)[:-1]
 
 
-def silhouette(pts: np.ndarray, outline: str, radius: float, neck: float, whole: bool) -> np.ndarray:
-    """The outline a cloud is drawn with: flat sides cut by the growth domain rounded (``whole``),
+def silhouette(pts: np.ndarray, outline: str, radius: float, neck: float, walls: tuple[float, float] | None,
+               tol: float) -> np.ndarray:
+    """The outline a cloud is drawn with: sides cut flat by the growth domain's ``walls`` rounded
+    (:func:`round_sides`; None: kept),
     rounded by a disc of ``radius`` (``outline = "rounded"``), and, when its :func:`neck_ratio` is
     under ``neck``, broadened (:func:`broaden`) and rounded again: no tower on a narrow neck."""
-    shape = round_sides(pts) if whole else pts
+    shape = round_sides(pts, walls, tol) if walls is not None else pts
     soft = (lambda p: rounded(p, radius)) if outline == "rounded" else (lambda p: p)
     shape = soft(shape)
     if neck > 0 and neck_ratio(shape) < neck:
@@ -352,7 +364,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
     shapes = []
     for i in range(len(depth)):     # each outline once, in defs; every other use is a <use> clone
         shapes.append(silhouette(dom.points[dom.offsets[i]:dom.offsets[i + 1]], outline, round_radius * heights[i],
-                                 neck, whole=not bleed))
+                                 neck, None if bleed else page.box[:2], SIDE_TOL * page.w))
         dwg.defs.add(dwg.path(d=page.d(shapes[-1]), id=f"outline{i}"))
     if haze_clouds:
         _haze(dwg, page, dom, shapes, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
@@ -460,7 +472,7 @@ def haze_shape(outline: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     w = (x1 - x0) * rng.uniform(0.45, 1.0)
     a = x0 + (x1 - x0 - w) * rng.uniform()
     piece = _largest_ccw(poly.intersection(shapely.box(a, y0 - 1, a + w, y1 + 1)), outline)
-    out = round_sides(piece)
+    out = round_sides(piece, (a, a + w), 1e-6 * w)
     return _largest_ccw(shapely.simplify(shapely.Polygon(out), 0.005 * np.ptp(out[:, 0])), out)
 
 
