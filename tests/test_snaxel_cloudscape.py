@@ -241,6 +241,7 @@ def test_horizon_clouds_are_smaller_paler_pairwise_different_and_fixed_by_the_ou
         p = g.find(SVG + "path")
         pts = np.array(re.findall(r"(-?[\d.]+),(-?[\d.]+)", p.get("d")), float)
         assert np.ptp(pts[:, 0]) < 0.6 * far_w and pts[:, 1].max() <= y_h + 0.05    # smaller, above the horizon
+        assert pts[:, 0].min() >= 0.02 * 150 - 0.05 and pts[:, 0].max() <= 150 - 0.02 * 150 + 0.05   # whole
         assert paleness(p.get("fill")[5:-1]) < paleness("body0")                      # paler than the far cloud
         pts = (pts - pts.min(0)) / np.ptp(pts, axis=0)                                # unit box: no stretch hides a clone
         shapes.append(Polygon(pts).buffer(0))

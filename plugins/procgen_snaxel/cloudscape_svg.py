@@ -368,7 +368,7 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         dwg.defs.add(dwg.path(d=page.d(shapes[-1]), id=f"outline{i}"))
     if haze_clouds:
         _haze(dwg, page, dom, shapes, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
-              lit, shade, sky_horizon)
+              lit, shade, sky_horizon, None if bleed else frame_margin * page.w)
     for i in np.argsort(depth, kind="stable"):
         far = 1.0 - (float(depth[i]) / (n - 1) if n > 1 else 1.0)
         pts, cv = dom.points[dom.offsets[i]:dom.offsets[i + 1]], curve[dom.offsets[i]:dom.offsets[i + 1]]
@@ -477,11 +477,13 @@ def haze_shape(outline: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 
 def _haze(dwg: Any, page: Page, dom: Any, shapes: list[np.ndarray], count: int, y_h: float,
-          perspective: float, flatten: float, base_rise: float, lit: str, shade: str, sky_horizon: str) -> None:
+          perspective: float, flatten: float, base_rise: float, lit: str, shade: str, sky_horizon: str,
+          margin: float | None) -> None:
     """``count`` small far clouds above the horizon, each its own :func:`haze_shape` (a cut of a
     drawn outline, mirrored at random) drawn at 12-60 % of the farthest cloud's scale, on the
     same condensation plane (so smaller sits lower), flatter and paler the farther; a layer
-    "horizon clouds" with one sub-layer per cloud, farthest first."""
+    "horizon clouds" with one sub-layer per cloud, farthest first. With a ``margin`` each lies
+    whole inside the page by it (moved sideways); None lets them bleed off the sides."""
     rng = _hash_rng(dom.points)
     u = np.sort(rng.uniform(0.12, 0.6, count))
     src = rng.integers(0, len(shapes), count)
@@ -495,7 +497,9 @@ def _haze(dwg: Any, page: Page, dom: Any, shapes: list[np.ndarray], count: int, 
         sx, sy = flip[j] * s, s * (1.0 - flatten) * (0.5 + 0.5 * u[j])
         cx, base = 0.5 * (shape[:, 0].min() + shape[:, 0].max()), shape[:, 1].min()
         ty = y_h - s * base_rise * page.h
-        drawn = np.column_stack([xs[j] + sx * (shape[:, 0] - cx), ty - sy * (shape[:, 1] - base)])
+        half = 0.5 * s * np.ptp(shape[:, 0])
+        x = xs[j] if margin is None else float(np.clip(xs[j], margin + half, max(page.w - margin - half, margin + half)))
+        drawn = np.column_stack([x + sx * (shape[:, 0] - cx), ty - sy * (shape[:, 1] - base)])
         pale = 1.0 - u[j]
         grad = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"haze{j}")
         grad.add_stop_color(0.0, mix(lit, sky_horizon, 0.35 + 0.5 * pale))
