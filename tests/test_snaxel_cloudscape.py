@@ -268,6 +268,20 @@ def test_texture_is_lit_noise_and_off_by_default():
     assert not [f for f in plain.iter(SVG + "filter") if f.get("id", "").startswith("texture")]
 
 
+def test_texture_follows_the_lobes_widest_on_their_shaded_flank():
+    root, _ = _scape(texture=0.4, sun_x=-0.6, sun_y=0.8)
+    layer = [g for g in root.findall(SVG + "g") if g.get(INK + "label") == "cloud 2 (depth 1)"][0]
+    discs = sorted((float(c.get("cx")), float(c.get("cy")), float(c.get("r"))) for c in layer.iter(SVG + "circle"))
+    rect = [r for r in layer.iter(SVG + "rect") if (r.get("filter") or "").startswith("url(#texture")][0]
+    mask = [m for m in root.iter(SVG + "mask") if m.get("id") == rect.get("mask")[5:-1]][0]
+    rings = sorted((float(c.get("cx")), float(c.get("cy")), float(c.get("r"))) for c in mask.iter(SVG + "circle"))
+    assert len(discs) == 2 and np.allclose(rings, discs)            # one ring per lobe, on the lobe
+    grad = [g for g in root.iter(SVG + "radialGradient") if g.get("id") == mask.find(SVG + "circle").get("fill")[5:-1]][0]
+    lum = [(float(st.get("offset")), _rgb(st.get("stop-color"))) for st in grad.findall(SVG + "stop")]
+    assert lum[0][1] == 0 and lum[-1][1] == 0 and max(v for _, v in lum) == 3 * 255   # smooth dome, bumpy rim, none past it
+    assert float(grad.get("fx")) < 0.5 and float(grad.get("fy")) < 0.5   # dark centre toward the sun (up-left)
+
+
 def test_limit_jitter_varies_each_curves_limit_and_zero_keeps_the_thesis():
     topo = poisson_tessellation(160.0, 160.0, 1.6, np.random.default_rng(5))
     runs = {}

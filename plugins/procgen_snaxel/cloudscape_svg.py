@@ -429,7 +429,9 @@ def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: n
     x0, y0 = page.xy(np.array([[shape[:, 0].min(), shape[:, 1].max()]]))[0]
     box = {"insert": (fmt_number(x0), fmt_number(y0)), "size": (fmt_number(np.ptp(shape[:, 0])), fmt_number(np.ptp(shape[:, 1])))}
     if texture > 0:
-        g.add(dwg.rect(**box, fill=bottom, filter=_texture(dwg, i, height, sun, bottom, texture)))
+        tex = g.add(dwg.rect(**box, fill=bottom, filter=_texture(dwg, i, height, sun, bottom, texture)))
+        if found:
+            tex["mask"] = _lobe_mask(dwg, page, i, found, sun)
     base = dwg.linearGradient(start=(0, 0), end=(0, 1), id=f"base{i}")
     base.add_stop_color(0.55, bottom, 0.0)
     base.add_stop_color(1.0, bottom, 0.85)
@@ -445,6 +447,23 @@ def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: n
         g.add(dwg.use(ref, fill="none", stroke=f"url(#rim{i})", stroke_width=fmt_number(0.06 * height),
                       stroke_linejoin="round", filter=_blur(dwg, f"rim-blur{i}", 0.012 * height)))
     layer.add(g)
+
+
+def _lobe_mask(dwg: Any, page: Page, i: int, found: list[tuple[np.ndarray, float]], sun: np.ndarray) -> str:
+    """Where the fine bumps show: a ring on each lobe (a mask of the lobe discs, each filled with one
+    shared radial gradient, black over the smooth lit dome, white toward its rim, black past it),
+    its dark centre leaning to the sun so the ring is widest on the lobe's shaded flank: the
+    cauliflower texture follows the lobes instead of lying over the cloud as one sheet."""
+    ident = "lobe-texture"
+    if not any(e.attribs.get("id") == ident for e in dwg.defs.elements):
+        grad = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.3 * sun[0], 0.5 - 0.3 * sun[1]), id=ident)
+        for off, grey in ((0.0, "#000000"), (0.45, "#000000"), (0.8, "#ffffff"), (1.0, "#000000")):
+            grad.add_stop_color(off, grey)
+        dwg.defs.add(grad)
+    mask = dwg.defs.add(dwg.mask(id=f"texture-mask{i}"))
+    for (cx, cy), (_, r) in zip(page.xy(np.array([c for c, _ in found])), found):
+        mask.add(dwg.circle(center=(fmt_number(cx), fmt_number(cy)), r=fmt_number(1.15 * r), fill=f"url(#{ident})"))
+    return f"url(#texture-mask{i})"
 
 
 def _texture(dwg: Any, i: int, height: float, sun: np.ndarray, colour: str, strength: float) -> str:
