@@ -16,7 +16,8 @@ import shapely.affinity
 from shapely import Polygon
 
 from procgen_snaxel.cloudscape_svg import (DEPTH_REACH, DEPTH_STEPS, GROUND_REACH, NECK_FLOOR, broaden,
-                                           cloudscape_svg, light_depth, neck_ratio, occlusion, round_sides, rounded)
+                                           LOBE_DIM, cloudscape_svg, light_depth, lobe_light, neck_ratio, occlusion,
+                                           round_sides, rounded)
 from procgen_snaxel.growth import CloudGrowth
 from procgen_snaxel.tessellate import poisson_tessellation
 
@@ -407,3 +408,28 @@ def test_clouds_stay_whole_inside_the_frame_unless_bleed_and_necks_are_repaired(
     assert min(_narrowest(np.column_stack([p[:, 0], -p[:, 1]])) for p in loose.values()) < 0.3   # neck kept
     with pytest.raises(InputError, match="neck"):
         _edge_scape(neck=1.5)
+
+
+def test_lobe_light_uses_the_suns_height_toward_the_viewer():
+    rng = np.random.default_rng(7)
+    xy = rng.uniform(-1, 1, (200000, 2))
+    xy = xy[np.hypot(*xy.T) < 1]
+    normals = np.column_stack([xy, np.sqrt(1 - (xy ** 2).sum(1))])          # the visible half of a round lobe
+    for sun3 in ([-0.35, 0.54, 0.76], [-0.6, 0.8, 0.0], [0.3, 0.4, -0.866]):
+        sun3 = np.array(sun3) / np.linalg.norm(sun3)
+        (fx, fy), dim = lobe_light(sun3)
+        lambert = normals @ sun3
+        brightest = xy[np.argmax(lambert)]
+        assert (fx - 0.5) / 0.45 == pytest.approx(brightest[0], abs=0.04)        # focal = brightest point seen
+        assert (0.5 - fy) / 0.45 == pytest.approx(brightest[1], abs=0.04)
+        lit_share = float((lambert > 0).mean())                                # lit share of the disc as seen
+        assert dim == pytest.approx(LOBE_DIM * (1 - lit_share), abs=0.01)
+    front, _ = _scape(sun_x=-0.6, sun_y=0.8, sun_z=2.0, self_shadow=0.0)
+    back, _ = _scape(sun_x=-0.6, sun_y=0.8, sun_z=-0.5, self_shadow=0.0, silver=0.6)
+    f, b = _stops(front)["lobe1-0"], _stops(back)["lobe1-0"]
+    assert _rgb(b[0].get("stop-color")) < _rgb(f[0].get("stop-color"))         # backlit lobes are greyer
+    gf = [g for g in front.iter(SVG + "radialGradient") if g.get("id") == "lobe1-0"][0]
+    gb = [g for g in back.iter(SVG + "radialGradient") if g.get("id") == "lobe1-0"][0]
+    assert abs(float(gf.get("fx")) - 0.5) < abs(float(gb.get("fx")) - 0.5)     # a high front sun lights the dome head-on
+    rim = [g for g in back.iter(SVG + "linearGradient") if g.get("id") == "rim1"][0].findall(SVG + "stop")[-1]
+    assert float(rim.get("stop-opacity")) > 0.6                                   # and the backlit rim glows more

@@ -66,6 +66,9 @@ SIDE_TOL, SIDE_RUN = 0.01, 0.15
 """A side cut by the page's side: consecutive outline points within SIDE_TOL of the page width from
 it, spanning at least SIDE_RUN of the cloud's height."""
 
+LOBE_DIM = 0.6
+"""How far toward the shade colour a lobe lit from straight behind the cloud darkens (:func:`lobe_light`)."""
+
 HAZE_BLUR = 0.6
 """Blur (page units) softening the horizon clouds' edges."""
 
@@ -395,15 +398,14 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         if soft > 0:
             attrs["filter"] = _blur(dwg, f"soft{i}", soft * height)
         layer = page.layer(f"cloud {int(i) + 1} (depth {int(depth[i])})", **attrs)
-        _draw_cloud(dwg, layer, page, int(i), pts, cv, shapes[i], height, sun, top, bottom, lobe_min, self_shadow, silver,
-                    thin_edge, texture)
+        _draw_cloud(dwg, layer, page, int(i), pts, cv, shapes[i], height, sun, sun3, top, bottom, lobe_min, self_shadow,
+                    silver, thin_edge, texture)
     return finish(dwg, provenance, title or "snaxel cloudscape")
 
 
 def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: np.ndarray, shape: np.ndarray,
-                height: float,
-                sun: np.ndarray, top: str, bottom: str, lobe_min: float, self_shadow: float, silver: float,
-                thin_edge: float, texture: float) -> None:
+                height: float, sun: np.ndarray, sun3: np.ndarray, top: str, bottom: str, lobe_min: float,
+                self_shadow: float, silver: float, thin_edge: float, texture: float) -> None:
     """One cloud inside its clip (and edge mask), in the cloud's own page coordinates."""
     ref = f"#outline{i}"
     clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
@@ -420,7 +422,7 @@ def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: n
     g.add(dwg.use(ref, fill=f"url(#body{i})"))
     found = lobes(pts, cv, lobe_min * height)
     if found:
-        _draw_lobes(dwg, g, page, i, found, shape, height, sun, top, bottom, self_shadow)
+        _draw_lobes(dwg, g, page, i, found, shape, height, sun, sun3, top, bottom, self_shadow)
     if self_shadow > 0:   # light dims through the cloud: its silhouette shifted away from the sun, blurred
         blur = _blur(dwg, f"depth{i}", 0.12 * height)
         for s in depth_shifts(sun, height):
@@ -437,6 +439,7 @@ def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: n
     base.add_stop_color(1.0, bottom, 0.85)
     dwg.defs.add(base)
     g.add(dwg.rect(**box, fill=f"url(#base{i})"))
+    silver = min(1.0, silver * (1.0 + max(0.0, -float(sun3[2]))))    # a backlit cloud's rim glows more
     if silver > 0:     # the sunward edge, brighter than the domes: a stroke whose inner half the clip keeps
         rim = dwg.linearGradient(start=(fmt_number(0.5 - 0.5 * sun[0]), fmt_number(0.5 + 0.5 * sun[1])),
                                  end=(fmt_number(0.5 + 0.5 * sun[0]), fmt_number(0.5 - 0.5 * sun[1])), id=f"rim{i}")
@@ -528,8 +531,23 @@ def _haze(dwg: Any, page: Page, dom: Any, shapes: list[np.ndarray], count: int, 
             dwg.path(d=path_data(np.round(drawn, 1), True), fill=f"url(#haze{j})", filter=blur))
 
 
+def lobe_light(sun3: np.ndarray) -> tuple[tuple[float, float], float]:
+    """How a round lobe (a sphere seen from the front) is lit by the unit sun vector (x right, y up,
+    z toward the viewer): its brightest point is where the surface normal is the sun vector,
+    seen at (x, y) x the lobe's radius from its centre (on the rim, toward the sun, when z < 0),
+    so a high sun behind the viewer lights the dome head-on and a grazing sun lights its rim; the lit share of the visible half is
+    (1 + z) / 2, so a lobe darkens by LOBE_DIM x (1 - z) / 2 toward the shade colour (the whole
+    face darkening as the sun moves behind the cloud). Returns ((fx, fy) the gradient's focal
+    point in the disc's box, y down, and the darkening 0..LOBE_DIM)."""
+    x, y, z = (float(v) for v in sun3)
+    if z < 0:                       # sun behind the cloud: the brightest visible point is on the rim
+        n = float(np.hypot(x, y))
+        x, y = (x / n, y / n) if n > 0 else (0.0, 0.0)
+    return (0.5 + 0.45 * x, 0.5 - 0.45 * y), LOBE_DIM * (1.0 - z) / 2.0
+
+
 def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarray, float]], shape: np.ndarray,
-                height: float, sun: np.ndarray, top: str, bottom: str, self_shadow: float) -> None:
+                height: float, sun: np.ndarray, sun3: np.ndarray, top: str, bottom: str, self_shadow: float) -> None:
     """Soft lobes from the far side of the sun to the near side, each darkened (in SHADE_LEVELS
     steps) by the larger of its occlusion and the share of DEPTH_STEPS of cloud the light crossed
     to reach its sunward face (:func:`light_depth`); each gradient fades to transparent at the rim,
@@ -538,10 +556,10 @@ def _draw_lobes(dwg: Any, g: Any, page: Page, i: int, found: list[tuple[np.ndarr
     radii = np.array([r for _, r in found])
     face = light_depth(shape, sun, height, centres + radii[:, None] * sun) / DEPTH_STEPS
     level = np.rint(np.maximum(occlusion(centres, radii, sun), face) * (SHADE_LEVELS - 1)).astype(int)
+    (fx, fy), dim = lobe_light(sun3)
     for k in np.unique(level):
-        lit = mix(top, bottom, self_shadow * k / (SHADE_LEVELS - 1))
-        grad = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(0.5 + 0.35 * sun[0], 0.5 - 0.35 * sun[1]),
-                                  id=f"lobe{i}-{k}")
+        lit = mix(top, bottom, min(1.0, self_shadow * k / (SHADE_LEVELS - 1) + dim))
+        grad = dwg.radialGradient(center=(0.5, 0.5), r=0.5, focal=(fx, fy), id=f"lobe{i}-{k}")
         for off, colour, alpha in ((0.0, lit, 1.0), (0.6, lit, 0.9), (0.85, mix(lit, bottom, 0.25), 0.45),
                                    (1.0, mix(lit, bottom, 0.35), 0.0)):     # white dome, greyer flank, no edge
             grad.add_stop_color(off, colour, alpha)
