@@ -385,7 +385,6 @@ def _drawn_outlines(root: ET.Element) -> dict[str, np.ndarray]:
         if not label.startswith("cloud "):
             continue
         tx, ty, sc, sy, nx, ny = (float(v) for v in re.findall(r"-?[\d.]+", g.get("transform")))
-        ref = g.find(f".//{SVG}clipPath") or next(u for u in g.iter(SVG + "use"))
         ident = next(u.get("{http://www.w3.org/1999/xlink}href") or u.get("href") for u in g.iter(SVG + "use"))[1:]
         p = paths[ident]
         out[label] = np.column_stack([tx + sc * (p[:, 0] + nx), ty + sy * (p[:, 1] + ny)])
