@@ -15,9 +15,9 @@ import shapely
 import shapely.affinity
 from shapely import Polygon
 
-from procgen_snaxel.cloudscape_svg import (DEPTH_REACH, DEPTH_STEPS, GROUND_REACH, NECK_FLOOR, broaden,
+from procgen_snaxel.cloudscape_svg import (DEPTH_REACH, DEPTH_STEPS, FLANK_GAP, GROUND_REACH, NECK_FLOOR, broaden,
                                            LOBE_DIM, cloudscape_svg, light_depth, lobe_light, neck_ratio, occlusion,
-                                           round_sides, rounded)
+                                           rim_lobes, round_sides, rounded, silhouette)
 from procgen_snaxel.growth import CloudGrowth
 from procgen_snaxel.tessellate import poisson_tessellation
 
@@ -340,13 +340,67 @@ def _tower(x: float = 60.0) -> np.ndarray:
 def test_a_tower_on_a_narrow_neck_is_broadened_into_a_broad_based_heap():
     tower = _tower()
     assert neck_ratio(tower) == pytest.approx(_narrowest(tower), abs=0.03) and _narrowest(tower) < 0.25
-    heap = broaden(tower)
-    assert _narrowest(heap) > 0.97                                   # no level wider than one below it
+    heap, added = broaden(tower)
+    assert _narrowest(heap) > 0.85 and added                         # broad-based: no level much wider than below
     assert Polygon(heap).buffer(1e-6).contains(Polygon(tower))       # filled, nothing of the cloud cut
     assert heap[:, 1].min() == pytest.approx(0.0) and heap[:, 1].max() == pytest.approx(tower[:, 1].max())
     assert Polygon(heap).exterior.is_ccw
     dome = np.column_stack([50 + 30 * np.cos(np.linspace(0, np.pi, 40)), 30 * np.sin(np.linspace(0, np.pi, 40))])
     assert neck_ratio(dome) > 0.97                                   # a dome has no neck
+
+
+def _bumpy_tower() -> np.ndarray:
+    """:func:`_tower` with a cauliflower head: ten discs of radius 7 round the head's rim."""
+    a = np.linspace(0, 2 * np.pi, 10, endpoint=False)
+    bumps = shapely.buffer(shapely.points(np.column_stack([74 + 15 * np.cos(a), 48 + 15 * np.sin(a)])), 7.0,
+                           quad_segs=8)
+    poly = shapely.orient_polygons(shapely.union_all([Polygon(_tower()), *bumps]))
+    return np.asarray(poly.exterior.coords)[:-1]
+
+
+def _concave_turning(p: np.ndarray, keep, step: float) -> float:
+    """Concave turning (radians) per unit length of the outline ``p`` (counter-clockwise) resampled
+    every ``step``, over the samples ``keep(samples)`` selects: 0 on a smooth convex bell, high
+    where bumps meet in notches."""
+    ring = shapely.LinearRing(p)
+    q = shapely.get_coordinates(shapely.line_interpolate_point(ring, np.arange(0, ring.length, step)))
+    d = np.roll(q, -1, axis=0) - q
+    turn = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - np.arctan2(*np.roll(d, 1, axis=0)[:, ::-1].T))))
+    sel = keep(q)
+    return float(np.clip(-turn[sel], 0, None).sum() / (sel.sum() * step))
+
+
+def test_a_broadened_flank_is_as_bumpy_as_the_grown_outline():
+    tower = _bumpy_tower()
+    h = np.ptp(tower[:, 1])
+    for shape in (broaden(tower)[0], silhouette(tower, "rounded", 0.05 * h, 0.7, None, 0.0)[0]):
+        assert _narrowest(shape) > 0.7                               # broadened: no narrow neck left
+        flank = _concave_turning(shape, lambda q: (shapely.distance(Polygon(tower), shapely.points(q)) > FLANK_GAP * h)
+                                 & (q[:, 1] > FLANK_GAP * h), 0.005 * h)
+        head = _concave_turning(tower, lambda q: q[:, 1] > 30, 0.005 * h)   # the grown head's notches
+        assert flank > 0.5 * head > 0, (flank, head)
+    bell = rounded(np.asarray(shapely.convex_hull(Polygon(tower)).exterior.coords)[:-1], 0.05 * h)
+    assert _concave_turning(bell, lambda q: q[:, 1] > 0, 0.005 * h) < 0.05 * head    # a smooth bell scores ~0
+
+
+def test_no_lobe_buried_in_the_body_is_drawn():
+    disc = np.column_stack([50 + 20 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)),
+                            20 + 20 * np.sin(np.linspace(0, 2 * np.pi, 200, endpoint=False))])
+    rim, buried = (np.array([50.0, 36.0]), 6.0), (np.array([50.0, 22.0]), 6.0)
+    assert [r for _, r in rim_lobes([rim, buried], disc)] == [6.0]          # the buried one dropped
+    root, _ = _edge_scape(neck=0.6)
+    drawn = _drawn_outlines(root)
+    for g in root.findall(SVG + "g"):                                 # every lobe drawn reaches its cloud's rim
+        if not g.get(INK + "label").startswith("cloud "):
+            continue
+        tx, ty, sc, sy, nx, ny = (float(v) for v in re.findall(r"-?[\d.]+", g.get("transform")))
+        ring = shapely.LinearRing(drawn[g.get(INK + "label")])
+        circles = [c for c in g.iter(SVG + "circle") if (c.get("fill") or "").startswith("url(#lobe")]
+        assert circles
+        for c in circles:
+            x, y, r = (float(c.get(k)) for k in ("cx", "cy", "r"))
+            centre = shapely.Point(tx + sc * (x + nx), ty + sy * (y + ny))
+            assert ring.distance(centre) <= sc * r / 1.15 + 1e-2
 
 
 def test_round_sides_removes_the_growth_domains_wall():

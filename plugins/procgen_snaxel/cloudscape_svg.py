@@ -18,6 +18,9 @@ and Chromium both render):
 * rounded edges (``outline = "rounded"``): the snaxel fringe opened and closed by a disc (shapely
   buffers), the thesis outline (``"snaxel"``) kept as the default; thin edges translucent through
   a blurred silhouette mask, the sunward rim brighter than the domes (a silver lining);
+* broad bases (``neck``): a cloud grown as a tower on a narrow neck is filled out to a flat-based
+  heap (:func:`broaden`) whose added flanks are built of lobes like the grown outline
+  (:func:`flank_lobes`); lobes the filling buried are not drawn (:func:`rim_lobes`);
 * aerial perspective: far clouds smaller, flatter and paler, down to ``haze_clouds`` small clones
   of the grown outlines in the band above the horizon;
 * with ``ground``, each cloud's shadow is its own outline projected along the sun onto the ground
@@ -61,6 +64,11 @@ NECK_FLOOR = 0.1
 NECK_SPREAD, BELL_POINTS = 0.3, 7
 """The bell :func:`broaden` hangs below each point reaches NECK_SPREAD x the cloud's height to either
 side at the base; it is drawn with BELL_POINTS points a side."""
+
+FLANK_GAP, FLANK_LOBE, FLANK_SINK, FLANK_STEP = 0.02, (0.06, 0.13), 0.35, 1.5
+"""Lobes on a broadened flank (:func:`flank_lobes`): where the outline lies more than FLANK_GAP x the
+cloud's height outside the grown cloud; radii FLANK_LOBE x the height; centres FLANK_SINK of a
+radius inside the outline, FLANK_STEP radii apart."""
 
 SIDE_TOL, SIDE_RUN = 0.01, 0.15
 """A side cut by the page's side: consecutive outline points within SIDE_TOL of the page width from
@@ -151,11 +159,12 @@ def neck_ratio(pts: np.ndarray, samples: int = NECK_SAMPLES) -> float:
     return float(np.min(w / np.maximum(above, 1e-12)))
 
 
-def broaden(pts: np.ndarray, spread: float = NECK_SPREAD) -> np.ndarray:
-    """The outline with a bell below every point added down to its base: the Minkowski sum with
-    the convex region |x| <= spread sqrt(depth x height), so each level is at least as wide as any
-    level above it (necks and overhangs filled, the base flat) and the filled flanks round out
-    from under the overhang like a cumulus's shoulders. Counter-clockwise, model y up."""
+def broaden(pts: np.ndarray, spread: float = NECK_SPREAD) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
+    """The outline with a bell below every point added down to its base (the Minkowski sum with
+    the convex region |x| <= spread sqrt(depth x height): each level at least as wide as any level
+    above it, necks and overhangs filled, the base flat), its added flanks then built of lobes
+    (:func:`flank_lobes`) so they bulge like the rest of a cumulus instead of a smooth bell.
+    Returns the outline (counter-clockwise, model y up) and the added lobes (centre, radius)."""
     poly = shapely.make_valid(shapely.Polygon(pts))
     x0, base, x1, top = poly.bounds
     h = top - base
@@ -166,9 +175,42 @@ def broaden(pts: np.ndarray, spread: float = NECK_SPREAD) -> np.ndarray:
     bell = np.concatenate([np.column_stack([-half, -d]), np.column_stack([half, -d])])          # (2k, 2)
     corners = np.concatenate([a[:, None, :] + bell[None], b[:, None, :] + bell[None]], axis=1)  # (n, 4k, 2)
     bells = shapely.convex_hull(shapely.multipoints(corners))
-    filled = shapely.union_all(np.append(bells, poly)).intersection(
-        shapely.box(x0 - 2 * spread * h - 1, base, x1 + 2 * spread * h + 1, top))
-    return _largest_ccw(filled, pts)
+    frame = shapely.box(x0 - 3 * spread * h - 1, base, x1 + 3 * spread * h + 1, top)
+    filled = shapely.union_all(np.append(bells, poly)).intersection(frame)
+    bell_outline = _largest_ccw(filled, pts)
+    added = flank_lobes(bell_outline, poly, base, h, _hash_rng(pts))
+    if not added:
+        return bell_outline, added
+    discs = shapely.buffer(shapely.points([c for c, _ in added]), [r for _, r in added], quad_segs=8)
+    return _largest_ccw(shapely.union_all([shapely.Polygon(bell_outline), *discs]).intersection(frame), pts), added
+
+
+def flank_lobes(outline: np.ndarray, cloud: Any, base: float, h: float,
+                rng: np.random.Generator) -> list[tuple[np.ndarray, float]]:
+    """Lobes (centre, radius) along the part of ``outline`` added to the ``cloud`` polygon (more
+    than FLANK_GAP x its height ``h`` outside it, above its ``base``): radii drawn in FLANK_LOBE x
+    h, each centre FLANK_SINK of its radius inside the outline, FLANK_STEP radii apart along it,
+    so their union with the outline scallops the added flank like the grown bumps."""
+    ring = shapely.LinearRing(outline)
+    step = 0.005 * h
+    s = np.arange(0.0, ring.length, step)
+    p = shapely.get_coordinates(shapely.line_interpolate_point(ring, s))
+    new = (shapely.distance(cloud, shapely.points(p)) > FLANK_GAP * h) & (p[:, 1] > base + FLANK_GAP * h)
+    if not new.any() or new.all():
+        return []
+    shift = int(np.flatnonzero(~new)[0])          # start the walk outside every added run
+    p, new = np.roll(p, -shift, axis=0), np.roll(new, -shift)
+    t = np.roll(p, -1, axis=0) - np.roll(p, 1, axis=0)
+    inward = np.column_stack([-t[:, 1], t[:, 0]]) / np.maximum(np.hypot(*t.T), 1e-12)[:, None]   # left of a CCW walk
+    out, k = [], 0
+    while k < len(p):
+        if not new[k]:
+            k += 1
+            continue
+        r = h * rng.uniform(*FLANK_LOBE)
+        out.append((p[k] + FLANK_SINK * r * inward[k], float(r)))
+        k += max(1, int(FLANK_STEP * r / step))
+    return out
 
 
 def round_sides(pts: np.ndarray, walls: tuple[float, float], tol: float) -> np.ndarray:
@@ -212,17 +254,28 @@ def _largest_ccw(geom: Any, fallback: np.ndarray) -> np.ndarray:
 
 
 def silhouette(pts: np.ndarray, outline: str, radius: float, neck: float, walls: tuple[float, float] | None,
-               tol: float) -> np.ndarray:
+               tol: float) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
     """The outline a cloud is drawn with: sides cut flat by the growth domain's ``walls`` rounded
     (:func:`round_sides`; None: kept),
     rounded by a disc of ``radius`` (``outline = "rounded"``), and, when its :func:`neck_ratio` is
-    under ``neck``, broadened (:func:`broaden`) and rounded again: no tower on a narrow neck."""
+    under ``neck``, broadened (:func:`broaden`) and rounded again: no tower on a narrow neck.
+    Returns the outline and the lobes the broadening added (none when it did not)."""
     shape = round_sides(pts, walls, tol) if walls is not None else pts
     soft = (lambda p: rounded(p, radius)) if outline == "rounded" else (lambda p: p)
     shape = soft(shape)
     if neck > 0 and neck_ratio(shape) < neck:
-        shape = soft(broaden(shape))
-    return shape
+        heap, added = broaden(shape)
+        return soft(heap), added
+    return shape, []
+
+
+def rim_lobes(found: list[tuple[np.ndarray, float]], shape: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """The lobes whose disc reaches the drawn outline: a lobe lying wholly inside the body (a grown
+    bulge a broadening buried) is no dome on the surface, and drawn it would show as a grey disc."""
+    if not found:
+        return found
+    reach = shapely.distance(shapely.LinearRing(shape), shapely.points([c for c, _ in found]))
+    return [lobe for lobe, d in zip(found, reach) if d <= lobe[1]]
 
 
 def framed(drawn: np.ndarray, qx: float, qy: float, ty: float, sc: float, sy: float, page_w: float,
@@ -364,10 +417,12 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
     curve = dom["snaxel__curve"] if "snaxel__curve" in dom else np.zeros(len(dom.points), np.int64)
     n = max(int(depth.max()) + 1, 1)
     heights = np.array([np.ptp(dom.points[dom.offsets[i]:dom.offsets[i + 1], 1]) for i in range(len(depth))])
-    shapes = []
+    shapes, added = [], []
     for i in range(len(depth)):     # each outline once, in defs; every other use is a <use> clone
-        shapes.append(silhouette(dom.points[dom.offsets[i]:dom.offsets[i + 1]], outline, round_radius * heights[i],
-                                 neck, None if bleed else page.box[:2], SIDE_TOL * page.w))
+        shape, extra = silhouette(dom.points[dom.offsets[i]:dom.offsets[i + 1]], outline, round_radius * heights[i],
+                                  neck, None if bleed else page.box[:2], SIDE_TOL * page.w)
+        shapes.append(shape)
+        added.append(extra)
         dwg.defs.add(dwg.path(d=page.d(shapes[-1]), id=f"outline{i}"))
     if haze_clouds:
         _haze(dwg, page, dom, shapes, int(haze_clouds), y_h, perspective, flatten, base_level - horizon,
@@ -398,14 +453,15 @@ def cloudscape_svg(domain: Any, *, stem: str = "", provenance: dict | None = Non
         if soft > 0:
             attrs["filter"] = _blur(dwg, f"soft{i}", soft * height)
         layer = page.layer(f"cloud {int(i) + 1} (depth {int(depth[i])})", **attrs)
-        _draw_cloud(dwg, layer, page, int(i), pts, cv, shapes[i], height, sun, sun3, top, bottom, lobe_min, self_shadow,
-                    silver, thin_edge, texture)
+        _draw_cloud(dwg, layer, page, int(i), pts, cv, shapes[i], added[i], height, sun, sun3, top, bottom, lobe_min,
+                    self_shadow, silver, thin_edge, texture)
     return finish(dwg, provenance, title or "snaxel cloudscape")
 
 
 def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: np.ndarray, shape: np.ndarray,
-                height: float, sun: np.ndarray, sun3: np.ndarray, top: str, bottom: str, lobe_min: float,
-                self_shadow: float, silver: float, thin_edge: float, texture: float) -> None:
+                added: list[tuple[np.ndarray, float]], height: float, sun: np.ndarray, sun3: np.ndarray, top: str,
+                bottom: str, lobe_min: float, self_shadow: float, silver: float, thin_edge: float,
+                texture: float) -> None:
     """One cloud inside its clip (and edge mask), in the cloud's own page coordinates."""
     ref = f"#outline{i}"
     clip = dwg.defs.add(dwg.clipPath(id=f"cloud{i}"))
@@ -420,7 +476,7 @@ def _draw_cloud(dwg: Any, layer: Any, page: Page, i: int, pts: np.ndarray, cv: n
     fill.add_stop_color(1.0, mix(top, bottom, 0.3))
     dwg.defs.add(fill)
     g.add(dwg.use(ref, fill=f"url(#body{i})"))
-    found = lobes(pts, cv, lobe_min * height)
+    found = rim_lobes(lobes(pts, cv, lobe_min * height) + added, shape)
     if found:
         _draw_lobes(dwg, g, page, i, found, shape, height, sun, sun3, top, bottom, self_shadow)
     if self_shadow > 0:   # light dims through the cloud: its silhouette shifted away from the sun, blurred
