@@ -65,7 +65,7 @@ NECK_SPREAD, BELL_POINTS = 0.3, 7
 """The bell :func:`broaden` hangs below each point reaches NECK_SPREAD x the cloud's height to either
 side at the base; it is drawn with BELL_POINTS points a side."""
 
-FLANK_GAP, FLANK_LOBE, FLANK_SINK, FLANK_STEP = 0.02, (0.06, 0.13), 0.35, 1.5
+FLANK_GAP, FLANK_LOBE, FLANK_SINK, FLANK_STEP = 0.02, (0.05, 0.17), 0.4, 1.4
 """Lobes on a broadened flank (:func:`flank_lobes`): where the outline lies more than FLANK_GAP x the
 cloud's height outside the grown cloud; radii FLANK_LOBE x the height; centres FLANK_SINK of a
 radius inside the outline, FLANK_STEP radii apart."""
