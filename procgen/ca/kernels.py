@@ -259,63 +259,90 @@ def _rule_csr(indptr, indices, a, code, cap, present, u, p, out, ever, age, i_al
 # read in word order, are that frontier sorted (no sort, no union).  ``st`` is one byte per
 # cell for the neighbour tests, a quarter of the int32 labels' bytes in the cache.
 
-_ONE_WAY = "_ca_one_way"
+_LINKS = "_ca_voronoi_links"
 _LABELLED, _HOLE, _QUEUED, _LISTED = 1, 2, 4, 8     # st bits (_LISTED: has one-way listing cells)
 
 
-def one_way_links(graph: CellGraph) -> tuple[np.ndarray, np.ndarray]:
-    """CSR (indptr, ids) of the cells listing each cell that the cell does not list itself:
-    the transposed graph minus the graph (empty on a symmetric lattice; the one-way cross-edge
-    links of a surface), made once per graph.  A new label reaches its neighbours both ways
-    (``VoronoiGrowth._frontier_of``) through the graph and this remainder only."""
-    got = graph.__dict__.get(_ONE_WAY)
-    if got is None:
+class VoronoiLinks:
+    """The graph as the compiled Voronoi step reads it, made once per graph (:func:`voronoi_links`).
+
+    ``links``: the neighbour ids (int32 below 2**31 cells) with the sign bit set on diagonal
+    entries, so a link's one load gives both (``link & id_mask`` is the id, ``link < 0`` the
+    diagonal flag).  ``xptr, xidx``: CSR of the cells listing a cell that the cell does not
+    list itself, the transposed graph minus the graph (empty on a symmetric lattice; the
+    one-way cross-edge links of a surface): a new label reaches its neighbours both ways
+    (``VoronoiGrowth._frontier_of``) through ``links`` and this remainder only; the st bit
+    _LISTED marks the cells that have one."""
+
+    def __init__(self, graph: CellGraph) -> None:
+        dtype = np.int32 if graph.n_cells < 2 ** 31 else np.int64
+        self.links = graph.indices.astype(dtype)
+        if graph.direction is not None:
+            self.links[graph.is_diagonal] |= np.iinfo(dtype).min
+        self.id_mask = dtype(np.iinfo(dtype).max)
         back = graph.incoming
-        keep = _one_way_mask(graph.indptr, compact_indices(graph), back.indptr, compact_indices(back))
-        indptr = np.zeros(graph.n_cells + 1, np.int64)
-        np.cumsum(np.bincount(back.rows[keep], minlength=graph.n_cells), out=indptr[1:])
-        got = graph.__dict__[_ONE_WAY] = (indptr, compact_indices(back)[keep])
+        ptr = np.int32 if graph.indices.size < 2 ** 31 else np.int64
+        self.xptr, self.xidx = _one_way(graph.indptr, graph.indices, back.indptr, back.indices,
+                                        np.empty(0, ptr), np.empty(0, dtype))
+        self.max_degree = int(graph.degree.max(initial=0))
+
+
+def voronoi_links(graph: CellGraph) -> VoronoiLinks:
+    got = graph.__dict__.get(_LINKS)
+    if got is None:
+        got = graph.__dict__[_LINKS] = VoronoiLinks(graph)
     return got
 
 
 @njit(cache=True, nogil=True)
-def _one_way_mask(indptr, indices, bptr, bidx):
-    keep = np.zeros(bidx.size, np.bool_)
-    for c in range(indptr.size - 1):
-        for e in range(bptr[c], bptr[c + 1]):
-            t = bidx[e]
-            found = False
-            for j in range(indptr[c], indptr[c + 1]):
-                found |= indices[j] == t
-            keep[e] = not found
-    return keep
+def _one_way(indptr, indices, bptr, bidx, like_ptr, like_id):
+    """CSR (indptr, ids) of the back entries absent from the cell's own row, in the dtypes of
+    ``like_ptr`` and ``like_id``."""
+    xptr = np.zeros(indptr.size, like_ptr.dtype)
+    for rep in range(2):                   # count, then fill
+        xidx = np.empty(xptr[-1], like_id.dtype)
+        m = 0
+        for c in range(indptr.size - 1):
+            for e in range(bptr[c], bptr[c + 1]):
+                t = bidx[e]
+                found = False
+                for j in range(indptr[c], indptr[c + 1]):
+                    found |= indices[j] == t
+                if not found:
+                    if rep:
+                        xidx[m] = t
+                    m += 1
+            xptr[c + 1] = m
+    return xptr, xidx
 
 
 class VoronoiWork:
-    """Buffers of the compiled Voronoi step, made once per growth: ``st`` (the bits above,
-    following ``labels``, which the step updates in place; a new labels array, e.g. set from
-    outside, is read again), the candidate sources and counts of one step, and the frontier
-    bitmap (one bit per cell, all clear between steps)."""
+    """Buffers of the compiled Voronoi step, made once per growth: ``st`` (one byte per cell,
+    the bits above, following ``labels``, which the step updates in place; a new labels array,
+    e.g. set from outside, is read again), the candidate sources and counts of one step, and
+    the frontier bitmap (one bit per cell, all clear between steps); the candidate sources and
+    counts of one step grow with the largest frontier seen (:meth:`fit`), not with the domain."""
 
     def __init__(self, graph: CellGraph) -> None:
-        nnz, n = graph.indices.size, graph.n_cells
-        self.xptr, self.xidx = one_way_links(graph)
-        ids = compact_indices(graph)
-        self.links = ids.copy()                 # the neighbour ids, the sign bit set on diagonals
-        if graph.direction is not None:
-            self.links[graph.is_diagonal] |= np.iinfo(ids.dtype).min
-        self.id_mask = ids.dtype.type(np.iinfo(ids.dtype).max)     # link & id_mask = the id
+        self.g = voronoi_links(graph)
+        n = graph.n_cells
         self.st = np.zeros(n, np.uint8)
-        self.cand = np.empty(nnz + 1, ids.dtype)   # (+1: the branch-free append's slot)
-        self.ncand = np.empty(n, np.int32)
         self.words = np.zeros(n // 64 + 1, np.uint64)
+        self.cand = np.empty(0, self.g.links.dtype)
+        self.ncand = np.empty(0, np.int32)
         self.labels = None
 
     def follow(self, labels: np.ndarray) -> None:
         if self.labels is not labels:
-            st = np.where(labels > 0, _LABELLED, np.where(labels < 0, _HOLE, 0)).astype(np.uint8)
-            self.st[:] = st | np.where(np.diff(self.xptr) > 0, _LISTED, 0).astype(np.uint8)
+            st = np.where(labels > 0, _LABELLED, np.where(labels < 0, _HOLE, 0))
+            self.st[:] = st | np.where(np.diff(self.g.xptr) > 0, _LISTED, 0)
             self.labels = labels
+
+    def fit(self, n_front: int) -> None:
+        """Room for the candidates of ``n_front`` frontier cells (+1: the branch-free append)."""
+        if self.ncand.size < n_front:
+            self.ncand = np.empty(2 * n_front, np.int32)
+            self.cand = np.empty(2 * n_front * self.g.max_degree + 1, self.g.links.dtype)
 
 
 def voronoi_step(grow, rng: np.random.Generator) -> int:
@@ -327,8 +354,10 @@ def voronoi_step(grow, rng: np.random.Generator) -> int:
     if work is None:
         work = grow.__dict__[_ATTR] = VoronoiWork(grow.graph)
     work.follow(grow.labels)
+    work.fit(len(front))
+    g = work.g
     nnew, grow.frontier = _voronoi_kernel(
-        grow.graph.indptr, work.links, work.id_mask, work.xptr, work.xidx,
+        grow.graph.indptr, g.links, g.id_mask, g.xptr, g.xidx,
         float(grow.p_diagonal), np.ascontiguousarray(front, np.int64), rng, grow.labels, work.st,
         work.cand, work.ncand, work.words)
     return int(nnew)
