@@ -28,7 +28,8 @@ gather every cell step needs, nothing else): over every cell in memory order for
 patina (as fixed-length rows when every cell has the same degree, the fastest form of that
 gather; the CSR loop is reported beside it), over the same frontiers in the same order for
 Voronoi.  Life and patina are timed per cell-step, Voronoi per frontier entry visited (its work
-is the frontier's, not the domain's).  Single-threaded rows (numba at one thread) give CPU
+is the frontier's, not the domain's; the per-graph links of the compiled step, ``graph_setup_s``,
+are built before the clock, as the transposed graph both paths use is).  Single-threaded rows (numba at one thread) give CPU
 time; the ``2 threads`` rows run the same workload with numba's threads on both cores and give
 wall time on every path (numpy included), which on a loaded machine is the noisier figure.
 Fastest of two alternating rounds; both paths' results are hashed.
@@ -121,6 +122,7 @@ def main() -> None:
                 ("life", f"  steps 2-100 = steady, active share in details (per cell-step)"),
                 ("life-2t", f"  steps 2-100, 2 threads, wall time"),
                 ("voronoi", f"ca.voronoi 24 seeds on ~{n:,} cells to full (per frontier entry)"),
+                ("voronoi-2t", f"  the same, 2 threads, wall time"),
                 ("corrode", f"layers.corrode kernel, ~{m:,} cup cells, {args.path_steps} steps (per cell-step)"),
                 ("corrode-2t", f"  the same, 2 threads, wall time")]
         rows = _paths.compare([w for w in work if w[0].startswith(args.only)],
@@ -515,19 +517,29 @@ def path_child(args, scale: float) -> None:
         _paths.report(seconds=t / (99 * g.n_cells), **fig)
         return
     g.incoming                                 # built once per graph on both paths, not timed
+    if accelerate:                             # the compiled step's per-graph links, timed apart
+        from procgen.ca.kernels import voronoi_links
+        t0 = time.perf_counter()
+        links = voronoi_links(g)
+        fig["graph_setup_s"] = round(time.perf_counter() - t0, 3)
     labels = place_seeds(g.n_cells, 24, np.random.default_rng(1))
     grow = VoronoiGrowth(g, labels, accelerate=accelerate)
     rng = np.random.default_rng(7)
-    entries = steps = 0
+    fronts = []                                # (counted after the clock: not the step's work)
     t0 = clock()
     while True:
-        entries += int(np.sum(g.degree[grow.frontier]))
+        fronts.append(grow.frontier)
         if not grow.step(rng):
             break
-        steps += 1
     t = clock() - t0
-    fig.update(hash=hashlib.sha256(grow.labels.tobytes()).hexdigest()[:16], steps=steps,
+    entries = sum(int(np.sum(g.degree[f])) for f in fronts)
+    fig.update(hash=hashlib.sha256(grow.labels.tobytes()).hexdigest()[:16], steps=len(fronts) - 1,
                frontier_entries=entries, seconds_total=round(t, 2))
+    if accelerate:                             # the step's own arrays (not the labels, the graph)
+        from procgen.ca.kernels import _ATTR
+        work = grow.__dict__[_ATTR]
+        arrays = [work.st, work.words, work.cand, work.ncand, links.links, links.xptr, links.xidx]
+        fig["bytes_per_cell"] = round(sum(a.nbytes for a in arrays) / g.n_cells, 1)
     _paths.report(seconds=t / entries, **fig)
 
 

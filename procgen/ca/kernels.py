@@ -350,32 +350,98 @@ def _rule_csr(indptr, indices, a, code, cap, present, u, p, out, ever, age, mode
 
 # --------------------------------------------------------------------------------------------
 # Voronoi propagation
+#
+# One compiled call per step (:func:`_voronoi_kernel`) draws from the rule's Generator itself
+# (numba runs the same bit generator: the same numbers in the same order as the numpy path's
+# ``rng.random`` arrays) in two passes over the frontier: the candidates (one draw per entry),
+# then the pick (one key per candidate) with the next frontier marked in a bitmap whose set bits,
+# read in word order, are that frontier sorted (no sort, no union).  ``st`` is one byte per
+# cell for the neighbour tests, a quarter of the int32 labels' bytes in the cache.
 
-class VoronoiWork:
-    """Per-graph buffers of the compiled Voronoi step (entries, cells) and the transposed graph.
+_LINKS = "_ca_voronoi_links"
+_LABELLED, _HOLE, _QUEUED, _LISTED = 1, 2, 4, 8     # st bits (_LISTED: has one-way listing cells)
 
-    ``st`` is one byte per cell for the neighbour tests (0 unlabelled, 1 labelled, 2 hole, +4
-    queued for the next frontier): a quarter of the int32 labels' bytes in the cache.  It
-    follows ``labels``, which the compiled step updates in place (a new labels array, e.g. set
-    from outside, is read again)."""
+
+class VoronoiLinks:
+    """The graph as the compiled Voronoi step reads it, made once per graph (:func:`voronoi_links`).
+
+    ``links``: the neighbour ids (int32 below 2**31 cells) with the sign bit set on diagonal
+    entries, so a link's one load gives both (``link & id_mask`` is the id, ``link < 0`` the
+    diagonal flag).  ``xptr, xidx``: CSR of the cells listing a cell that the cell does not
+    list itself, the transposed graph minus the graph (empty on a symmetric lattice; the
+    one-way cross-edge links of a surface): a new label reaches its neighbours both ways
+    (``VoronoiGrowth._frontier_of``) through ``links`` and this remainder only; the st bit
+    _LISTED marks the cells that have one."""
 
     def __init__(self, graph: CellGraph) -> None:
-        nnz, n = graph.indices.size, graph.n_cells
-        self.u = np.empty(nnz)
-        self.keys = np.empty(nnz)
-        self.ok = np.empty(nnz, np.uint8)
-        self.buf = np.empty(n, np.int64)
-        self.st = np.zeros(n, np.uint8)
-        self.labels = None
+        dtype = np.int32 if graph.n_cells < 2 ** 31 else np.int64
+        self.links = graph.indices.astype(dtype)
+        if graph.direction is not None:
+            self.links[graph.is_diagonal] |= np.iinfo(dtype).min
+        self.id_mask = dtype(np.iinfo(dtype).max)
         back = graph.incoming
-        self.indices = compact_indices(graph)
-        self.back_indptr, self.back_indices = back.indptr, compact_indices(back)
-        self.diag = graph.is_diagonal if graph.direction is not None else np.zeros(0, bool)
+        ptr = np.int32 if graph.indices.size < 2 ** 31 else np.int64
+        self.xptr, self.xidx = _one_way(graph.indptr, graph.indices, back.indptr, back.indices,
+                                        np.empty(0, ptr), np.empty(0, dtype))
+        self.max_degree = int(graph.degree.max(initial=0))
+
+
+def voronoi_links(graph: CellGraph) -> VoronoiLinks:
+    got = graph.__dict__.get(_LINKS)
+    if got is None:
+        got = graph.__dict__[_LINKS] = VoronoiLinks(graph)
+    return got
+
+
+@njit(cache=True, nogil=True)
+def _one_way(indptr, indices, bptr, bidx, like_ptr, like_id):
+    """CSR (indptr, ids) of the back entries absent from the cell's own row, in the dtypes of
+    ``like_ptr`` and ``like_id``."""
+    xptr = np.zeros(indptr.size, like_ptr.dtype)
+    for rep in range(2):                   # count, then fill
+        xidx = np.empty(xptr[-1], like_id.dtype)
+        m = 0
+        for c in range(indptr.size - 1):
+            for e in range(bptr[c], bptr[c + 1]):
+                t = bidx[e]
+                found = False
+                for j in range(indptr[c], indptr[c + 1]):
+                    found |= indices[j] == t
+                if not found:
+                    if rep:
+                        xidx[m] = t
+                    m += 1
+            xptr[c + 1] = m
+    return xptr, xidx
+
+
+class VoronoiWork:
+    """Buffers of the compiled Voronoi step, made once per growth: ``st`` (one byte per cell,
+    the bits above, following ``labels``, which the step updates in place; a new labels array,
+    e.g. set from outside, is read again), the candidate sources and counts of one step, and
+    the frontier bitmap (one bit per cell, all clear between steps); the candidate sources and
+    counts of one step grow with the largest frontier seen (:meth:`fit`), not with the domain."""
+
+    def __init__(self, graph: CellGraph) -> None:
+        self.g = voronoi_links(graph)
+        n = graph.n_cells
+        self.st = np.zeros(n, np.uint8)
+        self.words = np.zeros(n // 64 + 1, np.uint64)
+        self.cand = np.empty(0, self.g.links.dtype)
+        self.ncand = np.empty(0, np.int32)
+        self.labels = None
 
     def follow(self, labels: np.ndarray) -> None:
         if self.labels is not labels:
-            self.st[:] = np.where(labels > 0, 1, np.where(labels < 0, 2, 0))
+            st = np.where(labels > 0, _LABELLED, np.where(labels < 0, _HOLE, 0))
+            self.st[:] = st | np.where(np.diff(self.g.xptr) > 0, _LISTED, 0)
             self.labels = labels
+
+    def fit(self, n_front: int) -> None:
+        """Room for the candidates of ``n_front`` frontier cells (+1: the branch-free append)."""
+        if self.ncand.size < n_front:
+            self.ncand = np.empty(2 * n_front, np.int32)
+            self.cand = np.empty(2 * n_front * self.g.max_degree + 1, self.g.links.dtype)
 
 
 def voronoi_step(grow, rng: np.random.Generator) -> int:
@@ -383,99 +449,117 @@ def voronoi_step(grow, rng: np.random.Generator) -> int:
     front = grow.frontier
     if len(front) == 0:
         return 0
-    g = grow.graph
     work = grow.__dict__.get(_ATTR)
     if work is None:
-        work = grow.__dict__[_ATTR] = VoronoiWork(g)
+        work = grow.__dict__[_ATTR] = VoronoiWork(grow.graph)
     work.follow(grow.labels)
-    front = np.ascontiguousarray(front, np.int64)
-    ne = _entries(g.indptr, front)
-    rng.random(out=work.u[:ne])
-    nok = _candidates(g.indptr, work.indices, work.st, work.diag, work.diag.size > 0,
-                      float(grow.p_diagonal), front, work.u, work.ok)
-    if nok == 0:                      # pick_one_per_row draws nothing then
-        grow.frontier = front[grow.labels[front] == 0]
-        return 0
-    rng.random(out=work.keys[:nok])
-    nnew, nf = _pick(g.indptr, work.indices, work.back_indptr, work.back_indices, grow.labels, work.st,
-                     front, work.ok, work.keys, work.buf)
-    grow.frontier = np.sort(work.buf[:nf])
+    work.fit(len(front))
+    g = work.g
+    nnew, grow.frontier = _voronoi_kernel(
+        grow.graph.indptr, g.links, g.id_mask, g.xptr, g.xidx,
+        float(grow.p_diagonal), np.ascontiguousarray(front, np.int64), rng, grow.labels, work.st,
+        work.cand, work.ncand, work.words)
     return int(nnew)
 
 
-@njit(cache=True, nogil=True)
-def _entries(indptr, front):
-    ne = 0
-    for c in front:
-        ne += indptr[c + 1] - indptr[c]
-    return ne
+def _de_bruijn_table() -> np.ndarray:
+    table = np.zeros(64, np.int64)
+    for i in range(64):
+        table[((1 << i) * _DE_BRUIJN % 2 ** 64) >> 58] = i
+    return table
 
 
-@njit(cache=True, nogil=True)
-def _candidates(indptr, indices, st, diag, has_diag, p_diagonal, front, u, ok):
-    """ok per frontier entry: a labelled source, side link or diagonal draw below P."""
-    e = 0
-    nok = 0
-    for c in front:
-        for j in range(indptr[c], indptr[c + 1]):
-            good = st[indices[j]] & 3 == 1 and (not (has_diag and diag[j]) or u[e] < p_diagonal)
-            ok[e] = good
-            nok += good
-            e += 1
-    return nok
+_DE_BRUIJN = 0x03F79D71B4CB0A89
+_LOWEST_BIT = _de_bruijn_table()
+"""Index of a uint64's lowest set bit b: _LOWEST_BIT[(b * _DE_BRUIJN) >> 58] (every 6-bit
+window of the de Bruijn sequence is distinct)."""
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _queue_unlabelled(indptr, indices, c, st, buf, nf):
-    """Append c's unqueued, unlabelled neighbours to buf[nf:]; returns the new length."""
+def _mark(t, st, words, nq, lo, hi):
+    """Queue cell t for the next frontier (its st bit and bitmap bit); the count and the range
+    of bitmap words touched."""
+    st[t] |= _QUEUED
+    w = t >> 6
+    words[w] |= np.uint64(1) << np.uint64(t & 63)
+    return nq + 1, min(lo, w), max(hi, w)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _queue_row(indptr, indices, id_mask, c, st, words, nq, lo, hi):
+    """Queue c's unlabelled, unqueued neighbours (holes have st bit 2)."""
     for j in range(indptr[c], indptr[c + 1]):
-        t = indices[j]
-        if st[t] == 0:
-            st[t] = 4
-            buf[nf] = t
-            nf += 1
-    return nf
+        t = indices[j] & id_mask
+        if st[t] & 7 == 0:
+            nq, lo, hi = _mark(t, st, words, nq, lo, hi)
+    return nq, lo, hi
 
 
 @njit(cache=True, nogil=True)
-def _pick(indptr, indices, bptr, bidx, labels, st, front, ok, keys, buf):
-    """Per frontier cell the candidate of smallest key passes its label (labels in place; a
-    candidate's source was labelled before the step, so in-place writes change no choice), and
-    in the same pass the next frontier is queued: the frontier cells left unlabelled and the
-    unlabelled cells next to (either way) a new label.  A queued neighbour labelled later in
-    the pass is dropped at the end.  buf[:nf] = the next frontier, unsorted."""
-    e = 0
-    k = 0
-    nnew = 0
-    nf = 0
-    for c in front:
-        best = -1
-        bkey = 2.0
+def _voronoi_kernel(indptr, links, id_mask, xptr, xidx, p_diagonal, front, rng, labels, st,
+                    cand, ncand, words):
+    """One step: (cells labelled, next frontier sorted).
+
+    Pass 1, per frontier entry in order: a draw u, and the entry is a candidate when its source
+    is labelled and it is a side link or u < P (the numpy ``ok``); the sources are appended to
+    ``cand``.  Pass 2, per frontier cell in order: one key per candidate, the smallest wins
+    (first on ties: ``pick_one_per_row``'s lexsort), its label is copied (in place: a candidate's
+    source was labelled before the step, so no choice changes), and the cell's unlabelled
+    neighbours both ways are queued; a cell left unlabelled stays queued.  A queued cell
+    labelled later in the pass is not emitted."""
+    nc = 0
+    for i in range(front.size):
+        c = front[i]
+        k0 = nc
         for j in range(indptr[c], indptr[c + 1]):
-            if ok[e]:
-                if keys[k] < bkey:
-                    bkey = keys[k]
-                    best = j
-                k += 1
-            e += 1
-        if best >= 0:
-            labels[c] = labels[indices[best]]
-            st[c] = 1                          # (a queued front cell keeps its slot: dropped below)
+            v = links[j]
+            t = v & id_mask
+            u = rng.random()
+            good = (st[t] & 3 == _LABELLED) & ((v >= 0) | (u < p_diagonal))
+            cand[nc] = t
+            nc += good
+        ncand[i] = nc - k0
+    nnew = 0
+    nq = 0
+    k = 0
+    lo, hi = words.size, 0
+    for i in range(front.size):
+        c = front[i]
+        m = ncand[i]
+        if m == 0:
+            if st[c] & 7 == 0:
+                nq, lo, hi = _mark(c, st, words, nq, lo, hi)
+        else:
+            src = cand[k]
+            bkey = rng.random()
+            for q in range(k + 1, k + m):
+                key = rng.random()
+                better = key < bkey
+                bkey = key if better else bkey
+                src = cand[q] if better else src
+            k += m
+            labels[c] = labels[src]
+            if st[c] & _QUEUED:                # queued by an earlier cell of this pass
+                nq -= 1
+            st[c] = (st[c] & _LISTED) | _LABELLED
             nnew += 1
-            nf = _queue_unlabelled(indptr, indices, c, st, buf, nf)
-            nf = _queue_unlabelled(bptr, bidx, c, st, buf, nf)
-        elif st[c] == 0:
-            st[c] = 4
-            buf[nf] = c
-            nf += 1
+            nq, lo, hi = _queue_row(indptr, links, id_mask, c, st, words, nq, lo, hi)
+            if st[c] & _LISTED:
+                nq, lo, hi = _queue_row(xptr, xidx, id_mask, c, st, words, nq, lo, hi)
+    out = np.empty(nq, np.int64)
     m = 0
-    for i in range(nf):
-        t = buf[i]
-        if st[t] == 4:
-            st[t] = 0
-            buf[m] = t
-            m += 1
-    return nnew, m
+    for w in range(lo, hi + 1):
+        bits = words[w]
+        words[w] = 0
+        while bits:
+            low = bits & (~bits + np.uint64(1))
+            t = (w << 6) + _LOWEST_BIT[(low * np.uint64(_DE_BRUIJN)) >> np.uint64(58)]
+            bits ^= low
+            if st[t] & 7 == _QUEUED:
+                st[t] &= _LISTED
+                out[m] = t
+                m += 1
+    return nnew, out
 
 
 # --------------------------------------------------------------------------------------------
