@@ -7,7 +7,9 @@ through fixed-length rows of int16 id deltas where the degrees allow (:class:`Ne
 the neighbour bytes, with exact int32 escape rows for far neighbours) and the ``ca.life`` rule
 runs one fused kernel per step (:class:`LifeRun`), in parallel over numba's threads, or, once
 few cells change, an activity-tracking step that evaluates only the cells that can change;
-the Voronoi step keeps one byte per cell for its neighbour tests.  Imported only through
+the Voronoi step is one kernel per step over per-graph links (the diagonal flag in the id's sign
+bit, the backward direction only through one-way links), drawing from the rule's Generator inside
+numba and marking the next frontier in a bitmap read in order (no sort).  Imported only through
 :func:`procgen.accel.kernels` (this module needs numba).
 
 Same results, exactly: the life step is integer counting, each cell from the previous state
@@ -15,10 +17,11 @@ only (so any thread count gives the same cells; the tracking step skips only cel
 outcome is provably their state); the Voronoi step draws the same random numbers
 from the same Generator in the same order as ``VoronoiGrowth.step`` (one per frontier entry,
 then one per candidate entry, both in frontier order) and applies the same choice (smallest key
-per row, first on ties), so labels and frontier are identical (tests/test_ca_kernels.py).
-Buffers are allocated once per graph (or per rule, in setup) and reused: no step allocates
-anything proportional to the domain (the frontier's sort allocates in proportion to the
-frontier).
+per row, first on ties), so labels and frontier are identical (tests/test_ca_kernels.py,
+tests/test_life_kernels.py, tests/test_voronoi_kernels.py).  Buffers are allocated once per graph
+(or per rule, in setup) and reused: no step allocates anything proportional to the domain (the
+Voronoi step allocates its new frontier array, and its candidate buffers grow with the largest
+frontier seen).
 """
 from __future__ import annotations
 
