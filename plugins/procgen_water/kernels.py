@@ -47,9 +47,9 @@ _ATTR = "_drop_kernel_work"
 _MIN_CHUNK = 2048          # drops per thread below which the interaction runs on fewer threads
 
 # a drop's packed rows: floats (64 bytes) and int32s (32 bytes; KIND..AGE are the Drops fields,
-# RANK its index in the caller's arrays, CELL / TOP / OUT per-step scratch)
+# CELL / TOP / OUT per-step scratch)
 X, Y, VX, VY, VOL, SED, SPD, DH = range(8)
-KIND, MOV, AGE, RANK, CELL, TOP, OUT = range(7)
+KIND, MOV, AGE, CELL, TOP, OUT = range(6)
 
 
 class Work:
@@ -63,6 +63,7 @@ class Work:
         self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
         self.stamps = np.zeros(threads + 1)                 # phase stamps: sk's, then per thread
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
+        self.offsets = np.empty(threads + 1, np.int64)      # per thread: its first output drop
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
         self.wet = np.empty(ncell, np.int32)                # the cells wet after the release
@@ -138,7 +139,7 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
-              work.wet, work.wet_n, work.chunks, min(numba.get_num_threads(), work.wet_n.size),
+              work.wet, work.wet_n, work.chunks, work.offsets, min(numba.get_num_threads(), work.wet_n.size),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
@@ -356,6 +357,29 @@ def _copy_row(F, I, o, G, J, j):
 
 
 @njit(cache=True, nogil=True, parallel=True)
+def _compact(F, I, n, offsets, nth, pos, vel, volume, sediment, kind, moving, age):
+    """The packed drops with water, in their order, into the caller's arrays front to back (in
+    ``nth`` chunks: each counts its survivors, then writes from its offset); returns how many."""
+    nt = max(1, min(nth, n // 4096))
+    for t in prange(nt):
+        k = 0
+        for o in range(n * t // nt, n * (t + 1) // nt):
+            if F[o, VOL] > 0:
+                k += 1
+        offsets[t + 1] = k
+    offsets[0] = 0
+    for t in range(nt):
+        offsets[t + 1] += offsets[t]
+    for t in prange(nt):
+        j = offsets[t]
+        for o in range(n * t // nt, n * (t + 1) // nt):
+            if F[o, VOL] > 0:
+                _unpack(F, I, o, j, pos, vel, volume, sediment, kind, moving, age)
+                j += 1
+    return offsets[nt]
+
+
+@njit(cache=True, nogil=True, parallel=True)
 def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h, wet, wet_n):
     """particles.release_excess and Surface.height in one pass over the grid, in one chunk of
     cells per entry of ``wet_n`` (cells apart); the cells then holding water are listed, in
@@ -390,25 +414,36 @@ def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, 
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _move(ny, nx, sp, h, thickness, roughness, F, I, n, gravity, friction, adh_k, max_speed,
-          stable_speed, max_age):
-    """particles.move over the packed drops (each on its own): new position, velocity, speed,
-    dh, the start cell (CELL) and OUT for drops that left the grid; returns how many left."""
+def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving, age,
+          F, I, n, gravity, friction, adh_k, max_speed, stable_speed, max_age):
+    """particles.move of drop i of the caller's arrays into packed row i (each drop on its own):
+    new position, velocity, speed, dh, the end cell (CELL; the start cell for drops that left
+    the grid, marked OUT); returns how many left."""
     L = thickness.shape[1]
     vmax = max_speed * sp
     hi_x = nx * (1 - 1e-12)
     hi_y = ny * (1 - 1e-12)
     nout = 0
     for i in prange(n):
+        x = pos[i, 0]
+        y = pos[i, 1]
+        F[i, X] = x
+        F[i, Y] = y
+        F[i, VX] = vel[i, 0]
+        F[i, VY] = vel[i, 1]
+        F[i, VOL] = volume[i]
+        F[i, SED] = sediment[i]
         F[i, DH] = 0.0
+        I[i, KIND] = kind[i]
+        I[i, MOV] = moving[i]
+        I[i, AGE] = age[i]
         I[i, OUT] = 0
         if not I[i, MOV]:
             vx = F[i, VX]
             vy = F[i, VY]
             F[i, SPD] = math.hypot(vx, vy) if (vx != 0.0 or vy != 0.0) else 0.0
+            I[i, CELL] = _cell_of(x, y, nx, ny)
             continue
-        x = F[i, X]
-        y = F[i, Y]
         c, fu, fv = _corners(x, y, nx, ny)
         ci = c % nx
         cj = c // nx
@@ -471,6 +506,8 @@ def _move(ny, nx, sp, h, thickness, roughness, F, I, n, gravity, friction, adh_k
             I[i, OUT] = 1
             I[i, CELL] = cc
             nout += 1
+        else:
+            I[i, CELL] = _cell_of(nxp, nyp, nx, ny)
     return nout
 
 
@@ -691,8 +728,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, cell_sk, stamps, h, counts, wet, wet_n, chunks, nth, min_chunk, fa, ia,
-          fb, ib, rk, ent, pairs, pkey, touched, dtouched):
+          oy, ox, ow, sk, cell_sk, stamps, h, counts, wet, wet_n, chunks, offsets, nth, min_chunk,
+          fa, ia, fb, ib, rk, ent, pairs, pkey, touched, dtouched):
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
     key = rk[:, 0]
@@ -702,47 +739,27 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     df = deposit.reshape(-1)
     _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h, wet,
                         wet_n[:nth])
-    # --- pack the drops, sorted by start cell -------------------------------------------------
-    for r in prange(n0):
-        key[r] = _cell_of(pos[r, 0], pos[r, 1], nx, ny) if mode == 0 else 0
-    _counting_sort(key, n0, nb, counts, slot)
-    for r in prange(n0):
-        o = slot[r]
-        fa[o, X] = pos[r, 0]
-        fa[o, Y] = pos[r, 1]
-        fa[o, VX] = vel[r, 0]
-        fa[o, VY] = vel[r, 1]
-        fa[o, VOL] = volume[r]
-        fa[o, SED] = sediment[r]
-        ia[o, KIND] = kind[r]
-        ia[o, MOV] = moving[r]
-        ia[o, AGE] = age[r]
-        ia[o, RANK] = r
-    # --- move, drain ----------------------------------------------------------------------------
-    nout = _move(ny, nx, sp, h, thickness, roughness, fa, ia, n0, gravity, friction, adh_k,
-                 max_speed, stable_speed, max_age)
+    # --- move (reading the caller's arrays, in their order: the cell order of the last step
+    # plus any drops appended since) into packed rows, drain -----------------------------------
+    nout = _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
+                 age, fa, ia, n0, gravity, friction, adh_k, max_speed, stable_speed, max_age)
     if nout:
         _drain(fa, ia, n0, L, sk, stamps, touched, drained, drained_sed)
-    # --- repack the drops still on the grid, sorted by end cell then drop index (unless no
-    # drop left and none changed cell: then they are in that order already) -------------------
-    changed = 0
-    for o in prange(n0):
-        r = ia[o, RANK]
-        if ia[o, OUT]:
-            key[r] = -1
-        else:
-            c = _cell_of(fa[o, X], fa[o, Y], nx, ny)
-            ia[o, CELL] = c
-            k = c if mode == 0 else 0
-            if k != key[r]:
-                changed += 1
-            key[r] = k
+    # --- the one-cell footprint interacts in end-cell order (ties in drop order: a stable
+    # counting sort, skipped when the drops are in that order already); the others in drop order
+    unsorted = 0
+    if mode == 0 and not nout:
+        for o in prange(1, n0):
+            if ia[o, CELL] < ia[o - 1, CELL]:
+                unsorted += 1
     n = n0
-    if nout or changed:
+    if nout or unsorted:
+        for o in prange(n0):
+            key[o] = -1 if ia[o, OUT] else (ia[o, CELL] if mode == 0 else 0)
         n = _counting_sort(key, n0, nb, counts, slot)
         for o in prange(n0):
-            if not ia[o, OUT]:
-                _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
+            if key[o] >= 0:
+                _copy_row(fa, ia, o, fb, ib, slot[o])
     else:
         fb = fa
         ib = ia
@@ -766,21 +783,17 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                   deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
                   ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
                   pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi)
-    # --- the drops with water back into the caller's arrays, in drop order: read from their
-    # packed rows (slot, or key -1 if it left), written front to back -----------------------------
-    m = 0
-    for o in prange(n):
-        if fb[o, VOL] > 0:
-            m += 1
-    if m == n0:                                      # none left: each keeps its index
-        for r in prange(n0):
-            _unpack(fb, ib, slot[r], r, pos, vel, volume, sediment, kind, moving, age)
+    # --- the drops with water back into the caller's arrays, in end-cell order: with the
+    # one-cell footprint the packed order already, compacted chunk by chunk; else sorted ------
+    if mode == 0:
+        m = _compact(fb, ib, n, offsets, nth, pos, vel, volume, sediment, kind, moving, age)
     else:
-        j = 0
-        for r in range(n0):
-            if key[r] >= 0 and fb[slot[r], VOL] > 0:
-                _unpack(fb, ib, slot[r], j, pos, vel, volume, sediment, kind, moving, age)
-                j += 1
+        for o in prange(n):
+            key[o] = ib[o, CELL] if fb[o, VOL] > 0 else -1
+        m = _counting_sort(key, n, ny * nx, counts, slot)
+        for o in prange(n):
+            if key[o] >= 0:
+                _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
     if evaporation > 0:
         if mode == 0:
             _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n[:nth], ib, n)
