@@ -533,7 +533,8 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
 def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n):
+              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n, evaporated,
+              evaporation):
     """particles.interact (and the path count) over the packed drops lo..n-1, each key's sum in row
     key - kb of ``rows``.  With the one-cell footprint the drops come in (cell, drop) order and
     a key hears only its own cell's drops, so the phases run one cell at a time on the few rows
@@ -719,6 +720,8 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                 nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                 F[i, SED] -= s_
         _laid(a, tf, df, rows, kb, dtouched, nd)
+        if mode == 0 and evaporation > 0:       # the cell's water is final: evaporate it now
+            _evaporate_cell(I[lo, CELL], ny, nx, sp, h, held, evaporated, evaporation)
         lo = hi
 
 
@@ -782,7 +785,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                   erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
                   deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
                   ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
-                  pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi)
+                  pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi, evaporated, evaporation)
     # --- the drops with water back into the caller's arrays, in end-cell order: with the
     # one-cell footprint the packed order already, compacted chunk by chunk; else sorted ------
     if mode == 0:
@@ -830,30 +833,28 @@ def _evaporate(ny, nx, sp, h, held, evaporated, evaporation):
         _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n, I, n):
-    """particles.evaporate where water can be: the cells wet after the release (``wet``, in
-    ascending chunks) and the cells of the n packed drops (ascending: the one-cell footprint's
-    order), each once.  Absorption only wets a drop's own cell, and each cell's evaporation is
-    its own, so the order of the cells changes no number."""
+    """particles.evaporate at the cells wet after the release (``wet``, ascending, in chunks of
+    cells: one per thread) that hold no drop: the interaction evaporated the drops' cells (and
+    absorption wets no other).  Each cell's evaporation is its own: the order changes nothing."""
     nc = ny * nx
     nt = wet_n.size
-    o = 0
-    last = -1
-    for t in range(nt):
+    for t in prange(nt):
         k0 = nc * t // nt
+        lo = 0                                   # the first drop at or after this chunk's cells
+        hi = n
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if I[mid, CELL] < k0:
+                lo = mid + 1
+            else:
+                hi = mid
+        o = lo
         for k in range(k0, k0 + wet_n[t]):
             c = wet[k]
-            while o < n and I[o, CELL] < c:           # the drops' cells before c
-                if I[o, CELL] != last:
-                    last = I[o, CELL]
-                    _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
+            while o < n and I[o, CELL] < c:
                 o += 1
-            if c != last:
-                last = c
-                _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
-    while o < n:
-        if I[o, CELL] != last:
-            last = I[o, CELL]
-            _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
-        o += 1
+            if o < n and I[o, CELL] == c:
+                continue
+            _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
