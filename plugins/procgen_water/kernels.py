@@ -1,34 +1,39 @@
 """Compiled (numba) water-drop step: the same batch semantics as ``particles.step``, in loops.
 
-Why: the numpy step spends ~2 us per drop-step in temporaries and gathers, and a compiled loop
-that visits the drops in their own order reads the grid at random (a few cache misses per drop,
-~250 ns on this machine).  Here each step is one compiled call that keeps the grid in memory
-order: the drops are copied, sorted by cell, into a packed buffer (one 64-byte float row and one
-32-byte int row per drop), moved there, sorted again by their new cell, and interact there, so
-the grid and the drops are both walked front to back; the survivors go back into the caller's
-arrays in drop order.  Imported only through :func:`procgen.accel.kernels` (needs numba).
+Why: the numpy step spends ~1.7 us per drop-step in temporaries and gathers, and a compiled
+loop that visits the drops in a random order reads the grid at random (a few cache misses per
+drop, ~250 ns on this machine).  Both paths keep the drops in cell order (the order every step
+returns, :meth:`particles.Drops.in_cell_order`), so here each step is one compiled call that
+walks the grid and the drops front to back: the drops are moved from the caller's arrays (in
+their order: the last step's cell order, plus any drops appended since) into a packed buffer
+(one 64-byte float row and one 32-byte int row per drop), counting-sorted by their new cell
+only when some drop left the grid or now sits before its predecessor's cell, interact there,
+and the survivors are written back into the caller's arrays front to back.  Imported only
+through :func:`procgen.accel.kernels` (needs numba).
 
 Same numbers, bit for bit: the phases of ``particles.step`` run one after the other over all
 drops (move, drain, absorb + deposit, erode, deposit beyond capacity, lay and remove the empty
 drops, evaporate), each expression is evaluated in the same order, and every ``np.bincount``
 becomes an accumulator summing the same terms in the same order from 0 before adding the total
-to its target (tests/test_water_kernels.py checks array equality on all three footprints).  With
-the one-cell footprint a key (cell, layer) only hears the drops of its own cell, and the counting
-sort keeps them in drop order, so sorting by cell changes no sum; the wider footprints (a key
-hears drops of several cells) keep the drop order (the sort key is then 0).  The surface gradient
-is evaluated where needed from a start-of-step height buffer (``np.gradient``'s formulas).
-Evaporation visits only the cells wet after the release and the drops' cells (absorption wets
-no other), and when no drop left the grid or changed cell the drops are not sorted again.
+to its target (tests/test_water_kernels.py checks array equality on all three footprints, 1
+and 2 threads).  With the one-cell footprint a key (cell, layer) only hears the drops of its own
+cell, and the stable sort keeps them in drop order, so sorting by cell changes no sum; the wider
+footprints (a key hears drops of several cells) interact in drop order and are sorted by cell
+afterwards, as numpy's ``in_cell_order`` does.  The surface gradient is evaluated where needed
+from a start-of-step height buffer (``np.gradient``'s formulas).  The release of excess water
+runs after the move (which reads no held water); with the one-cell footprint a cell's water is
+final once its drops have interacted (absorption wets only a drop's own cell), so the cells
+without drops evaporate in the release pass and the drops' cells at the end of their
+interaction, while their rows are in cache: no separate evaporation pass.
 
 Threads (numba's, see procgen.accel): the grid passes run in chunks of cells, the drops' move
-and the copies between the caller's arrays and the packed rows in chunks of drops, and with the
-one-cell footprint the interaction in chunks of whole cells (each with its own key rows and
-scratch); every number belongs to one cell or one drop, so the result does not depend on the
-thread count.  The counting sorts, the drain and the wider footprints' interaction stay serial.
+and the write-back in chunks of drops, and with the one-cell footprint the interaction in chunks
+of whole cells (each with its own key rows and scratch); every number belongs to one cell or one
+drop, so the result does not depend on the thread count.  The counting sort, the drain and the
+wider footprints' interaction stay serial.
 
 Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
-height, a 4-byte counting-sort slot and a 4-byte wet-list entry, all allocated once per Surface;
-per drop two packed rows
+height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
 in each of two buffers and the pair scratch, grown geometrically: a step allocates nothing
 (``bytes_per_cell``, ``Work.bytes_per_drop``).
 """
@@ -66,8 +71,6 @@ class Work:
         self.offsets = np.empty(threads + 1, np.int64)      # per thread: its first output drop
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
-        self.wet = np.empty(ncell, np.int32)                # the cells wet after the release
-        self.wet_n = np.empty(threads, np.int64)            # how many, per thread's chunk
         self.cap = 0
         self.pcap = 0
         self.grow(1024, 1)
@@ -93,7 +96,7 @@ class Work:
 
     @property
     def grid_bytes(self) -> int:
-        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes + self.wet.nbytes
+        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes
 
     @property
     def bytes_per_drop(self) -> int:
@@ -107,9 +110,8 @@ class Work:
 
 
 def bytes_per_cell(n_layers: int) -> int:
-    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots,
-    wet-cell list)."""
-    return 32 * n_layers + 16
+    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots)."""
+    return 32 * n_layers + 12
 
 
 def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
@@ -139,7 +141,7 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
-              work.wet, work.wet_n, work.chunks, work.offsets, min(numba.get_num_threads(), work.wet_n.size),
+              work.chunks, work.offsets, min(numba.get_num_threads(), work.chunks.size - 1),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
@@ -380,37 +382,58 @@ def _compact(F, I, n, offsets, nth, pos, vel, volume, sediment, kind, moving, ag
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h, wet, wet_n):
-    """particles.release_excess and Surface.height in one pass over the grid, in one chunk of
-    cells per entry of ``wet_n`` (cells apart); the cells then holding water are listed, in
-    order, at the start of their chunk's part of ``wet`` (the count in ``wet_n``)."""
+def _height(nc, base, thickness, h, nt):
+    """Surface.height (base plus the layers, bottom first) in ``nt`` chunks of cells."""
     L = thickness.shape[1]
+    for t in prange(nt):
+        for c in range(nc * t // nt, nc * (t + 1) // nt):
+            hc = base[c]
+            for l in range(L):
+                hc += thickness[c, l]
+            h[c] = hc
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation, I, n, nt):
+    """particles.release_excess in one pass over the grid, in ``nt`` chunks of cells; with
+    ``evaporation`` > 0 the cells that hold no drop (the ``n`` packed drops, in cell order) then
+    evaporate (particles.evaporate: absorption wets only a drop's own cell, so their water is
+    final here; the interaction evaporates the drops' cells).  Each cell is its own: neither the
+    chunks nor the order change a number."""
+    L = thickness.shape[1]
+    a = sp * sp
     nc = ny * nx
-    nt = wet_n.size
     for t in prange(nt):
         k0 = nc * t // nt
-        k = k0
+        lo = 0                                   # the first drop at or after this chunk's cells
+        hi = n
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if I[mid, CELL] < k0:
+                lo = mid + 1
+            else:
+                hi = mid
+        o = lo
         for c in range(k0, nc * (t + 1) // nt):
             wt = False
             for l in range(L):
                 if held[c, l] != 0:
                     wt = True
-            if wt:
-                tot = 0.0
-                for l in range(L):
-                    ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
-                    if ex > 0:
-                        held[c, l] -= ex
-                        tot += ex
-                if tot > 0:
-                    evaporated[c] += tot
-                wet[k] = c
-                k += 1
-            hc = base[c]
+            if not wt:
+                continue
+            tot = 0.0
             for l in range(L):
-                hc += thickness[c, l]
-            h[c] = hc
-        wet_n[t] = k - k0
+                ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
+                if ex > 0:
+                    held[c, l] -= ex
+                    tot += ex
+            if tot > 0:
+                evaporated[c] += tot
+            if evaporation > 0:
+                while o < n and I[o, CELL] < c:
+                    o += 1
+                if not (o < n and I[o, CELL] == c):
+                    _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -731,7 +754,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, cell_sk, stamps, h, counts, wet, wet_n, chunks, offsets, nth, min_chunk,
+          oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, offsets, nth, min_chunk,
           fa, ia, fb, ib, rk, ent, pairs, pkey, touched, dtouched):
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
@@ -740,8 +763,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     tf = thickness.reshape(-1)
     hf = held.reshape(-1)
     df = deposit.reshape(-1)
-    _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h, wet,
-                        wet_n[:nth])
+    _height(ny * nx, base, thickness, h, nth)
     # --- move (reading the caller's arrays, in their order: the cell order of the last step
     # plus any drops appended since) into packed rows, drain -----------------------------------
     nout = _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
@@ -766,6 +788,10 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     else:
         fb = fa
         ib = ia
+    # --- release (move and drain read no held water); with the one-cell footprint, evaporate the
+    # cells without drops -----------------------------------------------------------------------
+    _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation if mode == 0 else 0.0,
+             ib, n if mode == 0 else 0, nth)
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread ----------
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
     chunks[0] = 0
@@ -797,11 +823,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         for o in prange(n):
             if key[o] >= 0:
                 _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
-    if evaporation > 0:
-        if mode == 0:
-            _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n[:nth], ib, n)
-        else:
-            _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
+    if evaporation > 0 and mode != 0:
+        _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
     return m
 
 
@@ -831,30 +854,3 @@ def _evaporate(ny, nx, sp, h, held, evaporated, evaporation):
     """particles.evaporate over the whole grid (cells apart)."""
     for c in prange(ny * nx):
         _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n, I, n):
-    """particles.evaporate at the cells wet after the release (``wet``, ascending, in chunks of
-    cells: one per thread) that hold no drop: the interaction evaporated the drops' cells (and
-    absorption wets no other).  Each cell's evaporation is its own: the order changes nothing."""
-    nc = ny * nx
-    nt = wet_n.size
-    for t in prange(nt):
-        k0 = nc * t // nt
-        lo = 0                                   # the first drop at or after this chunk's cells
-        hi = n
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if I[mid, CELL] < k0:
-                lo = mid + 1
-            else:
-                hi = mid
-        o = lo
-        for k in range(k0, k0 + wet_n[t]):
-            c = wet[k]
-            while o < n and I[o, CELL] < c:
-                o += 1
-            if o < n and I[o, CELL] == c:
-                continue
-            _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
