@@ -22,6 +22,8 @@ def _run(case, accelerate: bool, steps: int = 25):
         if it == 8:
             d = d.concat(P.emit(s, p, np.random.default_rng(it), 80, "top", 0.2))
         d = P.step(s, d, p, accelerate=accelerate)
+        cells = P._cell_of(d.pos, s.shape)
+        assert np.all(cells[1:] >= cells[:-1]), it          # the canonical (cell) order
     return s, d
 
 
