@@ -22,6 +22,8 @@ def _run(case, accelerate: bool, steps: int = 25):
         if it == 8:
             d = d.concat(P.emit(s, p, np.random.default_rng(it), 80, "top", 0.2))
         d = P.step(s, d, p, accelerate=accelerate)
+        cells = P._cell_of(d.pos, s.shape)
+        assert np.all(cells[1:] >= cells[:-1]), it          # the canonical (cell) order
     return s, d
 
 
@@ -82,9 +84,9 @@ def test_compiled_step_keeps_no_grid_sized_temporaries_between_steps():
     assert not work.sk[:, 3].any()                # the deposit columns are left at zero
     assert not work.cell_sk[..., 3].any()
     assert work.grid_bytes == s.ncell * K.bytes_per_cell(s.n_layers) + 4     # + 1 sort slot
-    ids = [id(a) for a in (work.fa, work.fb, work.wet, work.pairs)]
+    ids = [id(a) for a in (work.fa, work.fb, work.offsets, work.pairs)]
     d = P.step(s, d, p, accelerate=True)
-    assert ids == [id(a) for a in (work.fa, work.fb, work.wet, work.pairs)]
+    assert ids == [id(a) for a in (work.fa, work.fb, work.offsets, work.pairs)]
 
 
 def test_accelerate_true_without_numba_is_one_line_error(monkeypatch):

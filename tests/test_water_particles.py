@@ -207,3 +207,20 @@ def test_one_drop_one_step_matches_hand_computation():
     assert d.sediment[0] == pytest.approx(eroded, rel=1e-12) and d.kind[0] == 0
     others = np.delete(np.arange(25), c)
     assert np.all(s.thickness[others] == 1.0) and np.all(s.held[others] == 0.4)
+
+
+@pytest.mark.parametrize("accelerate", [False, True])
+def test_step_returns_drops_in_cell_order_ties_in_their_previous_order(accelerate):
+    """The canonical drop order: by cell, drops sharing a cell in their order before the step
+    (volumes label the drops: non-absorbent rock on a flat plane keeps them and the drops)."""
+    if accelerate:
+        pytest.importorskip("numba")
+    tab = parse_materials(["rock"])
+    s = P.make_surface(np.zeros((10, 10)), np.ones((10, 10, 1)), tab)
+    pos = np.array([[5.5, 5.5], [1.5, 1.5], [9.5, 0.5], [5.2, 5.7], [1.1, 1.9], [5.9, 5.1]])
+    n = len(pos)
+    d = P.Drops(pos.copy(), np.zeros((n, 2)), np.arange(1.0, n + 1), np.zeros(n), np.full(n, -1),
+                np.ones(n, bool), np.zeros(n, np.int64))
+    d = P.step(s, d, WaterDrops(evaporation=0.0), accelerate=accelerate)
+    assert d.volume.tolist() == [3.0, 2.0, 5.0, 1.0, 4.0, 6.0]    # cells 9, 11, 11, 55, 55, 55
+    assert np.array_equal(d.pos, pos[[2, 1, 4, 0, 3, 5]])           # at rest on the flat plane

@@ -1,34 +1,39 @@
 """Compiled (numba) water-drop step: the same batch semantics as ``particles.step``, in loops.
 
-Why: the numpy step spends ~2 us per drop-step in temporaries and gathers, and a compiled loop
-that visits the drops in their own order reads the grid at random (a few cache misses per drop,
-~250 ns on this machine).  Here each step is one compiled call that keeps the grid in memory
-order: the drops are copied, sorted by cell, into a packed buffer (one 64-byte float row and one
-32-byte int row per drop), moved there, sorted again by their new cell, and interact there, so
-the grid and the drops are both walked front to back; the survivors go back into the caller's
-arrays in drop order.  Imported only through :func:`procgen.accel.kernels` (needs numba).
+Why: the numpy step spends ~1.7 us per drop-step in temporaries and gathers, and a compiled
+loop that visits the drops in a random order reads the grid at random (a few cache misses per
+drop, ~250 ns on this machine).  Both paths keep the drops in cell order (the order every step
+returns, :meth:`particles.Drops.in_cell_order`), so here each step is one compiled call that
+walks the grid and the drops front to back: the drops are moved from the caller's arrays (in
+their order: the last step's cell order, plus any drops appended since) into a packed buffer
+(one 64-byte float row and one 32-byte int row per drop), counting-sorted by their new cell
+only when some drop left the grid or now sits before its predecessor's cell, interact there,
+and the survivors are written back into the caller's arrays front to back.  Imported only
+through :func:`procgen.accel.kernels` (needs numba).
 
 Same numbers, bit for bit: the phases of ``particles.step`` run one after the other over all
 drops (move, drain, absorb + deposit, erode, deposit beyond capacity, lay and remove the empty
 drops, evaporate), each expression is evaluated in the same order, and every ``np.bincount``
 becomes an accumulator summing the same terms in the same order from 0 before adding the total
-to its target (tests/test_water_kernels.py checks array equality on all three footprints).  With
-the one-cell footprint a key (cell, layer) only hears the drops of its own cell, and the counting
-sort keeps them in drop order, so sorting by cell changes no sum; the wider footprints (a key
-hears drops of several cells) keep the drop order (the sort key is then 0).  The surface gradient
-is evaluated where needed from a start-of-step height buffer (``np.gradient``'s formulas).
-Evaporation visits only the cells wet after the release and the drops' cells (absorption wets
-no other), and when no drop left the grid or changed cell the drops are not sorted again.
+to its target (tests/test_water_kernels.py checks array equality on all three footprints, 1
+and 2 threads).  With the one-cell footprint a key (cell, layer) only hears the drops of its own
+cell, and the stable sort keeps them in drop order, so sorting by cell changes no sum; the wider
+footprints (a key hears drops of several cells) interact in drop order and are sorted by cell
+afterwards, as numpy's ``in_cell_order`` does.  The surface gradient is evaluated where needed
+from a start-of-step height buffer (``np.gradient``'s formulas).  The release of excess water
+runs after the move (which reads no held water); with the one-cell footprint a cell's water is
+final once its drops have interacted (absorption wets only a drop's own cell), so the cells
+without drops evaporate in the release pass and the drops' cells at the end of their
+interaction, while their rows are in cache: no separate evaporation pass.
 
 Threads (numba's, see procgen.accel): the grid passes run in chunks of cells, the drops' move
-and the copies between the caller's arrays and the packed rows in chunks of drops, and with the
-one-cell footprint the interaction in chunks of whole cells (each with its own key rows and
-scratch); every number belongs to one cell or one drop, so the result does not depend on the
-thread count.  The counting sorts, the drain and the wider footprints' interaction stay serial.
+and the write-back in chunks of drops, and with the one-cell footprint the interaction in chunks
+of whole cells (each with its own key rows and scratch); every number belongs to one cell or one
+drop, so the result does not depend on the thread count.  The counting sort, the drain and the
+wider footprints' interaction stay serial.
 
 Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
-height, a 4-byte counting-sort slot and a 4-byte wet-list entry, all allocated once per Surface;
-per drop two packed rows
+height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
 in each of two buffers and the pair scratch, grown geometrically: a step allocates nothing
 (``bytes_per_cell``, ``Work.bytes_per_drop``).
 """
@@ -47,9 +52,9 @@ _ATTR = "_drop_kernel_work"
 _MIN_CHUNK = 2048          # drops per thread below which the interaction runs on fewer threads
 
 # a drop's packed rows: floats (64 bytes) and int32s (32 bytes; KIND..AGE are the Drops fields,
-# RANK its index in the caller's arrays, CELL / TOP / OUT per-step scratch)
+# CELL / TOP / OUT per-step scratch)
 X, Y, VX, VY, VOL, SED, SPD, DH = range(8)
-KIND, MOV, AGE, RANK, CELL, TOP, OUT = range(7)
+KIND, MOV, AGE, CELL, TOP, OUT = range(6)
 
 
 class Work:
@@ -63,10 +68,9 @@ class Work:
         self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
         self.stamps = np.zeros(threads + 1)                 # phase stamps: sk's, then per thread
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
+        self.offsets = np.empty(threads + 1, np.int64)      # per thread: its first output drop
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
-        self.wet = np.empty(ncell, np.int32)                # the cells wet after the release
-        self.wet_n = np.empty(threads, np.int64)            # how many, per thread's chunk
         self.cap = 0
         self.pcap = 0
         self.grow(1024, 1)
@@ -92,7 +96,7 @@ class Work:
 
     @property
     def grid_bytes(self) -> int:
-        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes + self.wet.nbytes
+        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes
 
     @property
     def bytes_per_drop(self) -> int:
@@ -106,9 +110,8 @@ class Work:
 
 
 def bytes_per_cell(n_layers: int) -> int:
-    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots,
-    wet-cell list)."""
-    return 32 * n_layers + 16
+    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots)."""
+    return 32 * n_layers + 12
 
 
 def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
@@ -138,7 +141,7 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
               bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
-              work.wet, work.wet_n, work.chunks, min(numba.get_num_threads(), work.wet_n.size),
+              work.chunks, work.offsets, min(numba.get_num_threads(), work.chunks.size - 1),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
@@ -356,59 +359,114 @@ def _copy_row(F, I, o, G, J, j):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _release_and_height(ny, nx, a, base, thickness, held, capacity, evaporated, h, wet, wet_n):
-    """particles.release_excess and Surface.height in one pass over the grid, in one chunk of
-    cells per entry of ``wet_n`` (cells apart); the cells then holding water are listed, in
-    order, at the start of their chunk's part of ``wet`` (the count in ``wet_n``)."""
+def _compact(F, I, n, offsets, nth, pos, vel, volume, sediment, kind, moving, age):
+    """The packed drops with water, in their order, into the caller's arrays front to back (in
+    ``nth`` chunks: each counts its survivors, then writes from its offset); returns how many."""
+    nt = max(1, min(nth, n // 4096))
+    for t in prange(nt):
+        k = 0
+        for o in range(n * t // nt, n * (t + 1) // nt):
+            if F[o, VOL] > 0:
+                k += 1
+        offsets[t + 1] = k
+    offsets[0] = 0
+    for t in range(nt):
+        offsets[t + 1] += offsets[t]
+    for t in prange(nt):
+        j = offsets[t]
+        for o in range(n * t // nt, n * (t + 1) // nt):
+            if F[o, VOL] > 0:
+                _unpack(F, I, o, j, pos, vel, volume, sediment, kind, moving, age)
+                j += 1
+    return offsets[nt]
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _height(nc, base, thickness, h, nt):
+    """Surface.height (base plus the layers, bottom first) in ``nt`` chunks of cells."""
     L = thickness.shape[1]
+    for t in prange(nt):
+        for c in range(nc * t // nt, nc * (t + 1) // nt):
+            hc = base[c]
+            for l in range(L):
+                hc += thickness[c, l]
+            h[c] = hc
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation, I, n, nt):
+    """particles.release_excess in one pass over the grid, in ``nt`` chunks of cells; with
+    ``evaporation`` > 0 the cells that hold no drop (the ``n`` packed drops, in cell order) then
+    evaporate (particles.evaporate: absorption wets only a drop's own cell, so their water is
+    final here; the interaction evaporates the drops' cells).  Each cell is its own: neither the
+    chunks nor the order change a number."""
+    L = thickness.shape[1]
+    a = sp * sp
     nc = ny * nx
-    nt = wet_n.size
     for t in prange(nt):
         k0 = nc * t // nt
-        k = k0
+        lo = 0                                   # the first drop at or after this chunk's cells
+        hi = n
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if I[mid, CELL] < k0:
+                lo = mid + 1
+            else:
+                hi = mid
+        o = lo
         for c in range(k0, nc * (t + 1) // nt):
             wt = False
             for l in range(L):
                 if held[c, l] != 0:
                     wt = True
-            if wt:
-                tot = 0.0
-                for l in range(L):
-                    ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
-                    if ex > 0:
-                        held[c, l] -= ex
-                        tot += ex
-                if tot > 0:
-                    evaporated[c] += tot
-                wet[k] = c
-                k += 1
-            hc = base[c]
+            if not wt:
+                continue
+            tot = 0.0
             for l in range(L):
-                hc += thickness[c, l]
-            h[c] = hc
-        wet_n[t] = k - k0
+                ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
+                if ex > 0:
+                    held[c, l] -= ex
+                    tot += ex
+            if tot > 0:
+                evaporated[c] += tot
+            if evaporation > 0:
+                while o < n and I[o, CELL] < c:
+                    o += 1
+                if not (o < n and I[o, CELL] == c):
+                    _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _move(ny, nx, sp, h, thickness, roughness, F, I, n, gravity, friction, adh_k, max_speed,
-          stable_speed, max_age):
-    """particles.move over the packed drops (each on its own): new position, velocity, speed,
-    dh, the start cell (CELL) and OUT for drops that left the grid; returns how many left."""
+def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving, age,
+          F, I, n, gravity, friction, adh_k, max_speed, stable_speed, max_age):
+    """particles.move of drop i of the caller's arrays into packed row i (each drop on its own):
+    new position, velocity, speed, dh, the end cell (CELL; the start cell for drops that left
+    the grid, marked OUT); returns how many left."""
     L = thickness.shape[1]
     vmax = max_speed * sp
     hi_x = nx * (1 - 1e-12)
     hi_y = ny * (1 - 1e-12)
     nout = 0
     for i in prange(n):
+        x = pos[i, 0]
+        y = pos[i, 1]
+        F[i, X] = x
+        F[i, Y] = y
+        F[i, VX] = vel[i, 0]
+        F[i, VY] = vel[i, 1]
+        F[i, VOL] = volume[i]
+        F[i, SED] = sediment[i]
         F[i, DH] = 0.0
+        I[i, KIND] = kind[i]
+        I[i, MOV] = moving[i]
+        I[i, AGE] = age[i]
         I[i, OUT] = 0
         if not I[i, MOV]:
             vx = F[i, VX]
             vy = F[i, VY]
             F[i, SPD] = math.hypot(vx, vy) if (vx != 0.0 or vy != 0.0) else 0.0
+            I[i, CELL] = _cell_of(x, y, nx, ny)
             continue
-        x = F[i, X]
-        y = F[i, Y]
         c, fu, fv = _corners(x, y, nx, ny)
         ci = c % nx
         cj = c // nx
@@ -471,6 +529,8 @@ def _move(ny, nx, sp, h, thickness, roughness, F, I, n, gravity, friction, adh_k
             I[i, OUT] = 1
             I[i, CELL] = cc
             nout += 1
+        else:
+            I[i, CELL] = _cell_of(nxp, nyp, nx, ny)
     return nout
 
 
@@ -496,7 +556,8 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
 def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n):
+              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n, evaporated,
+              evaporation):
     """particles.interact (and the path count) over the packed drops lo..n-1, each key's sum in row
     key - kb of ``rows``.  With the one-cell footprint the drops come in (cell, drop) order and
     a key hears only its own cell's drops, so the phases run one cell at a time on the few rows
@@ -682,6 +743,8 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                 nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
                 F[i, SED] -= s_
         _laid(a, tf, df, rows, kb, dtouched, nd)
+        if mode == 0 and evaporation > 0:       # the cell's water is final: evaporate it now
+            _evaporate_cell(I[lo, CELL], ny, nx, sp, h, held, evaporated, evaporation)
         lo = hi
 
 
@@ -691,8 +754,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, cell_sk, stamps, h, counts, wet, wet_n, chunks, nth, min_chunk, fa, ia,
-          fb, ib, rk, ent, pairs, pkey, touched, dtouched):
+          oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, offsets, nth, min_chunk,
+          fa, ia, fb, ib, rk, ent, pairs, pkey, touched, dtouched):
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
     key = rk[:, 0]
@@ -700,52 +763,35 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     tf = thickness.reshape(-1)
     hf = held.reshape(-1)
     df = deposit.reshape(-1)
-    _release_and_height(ny, nx, sp * sp, base, thickness, held, capacity, evaporated, h, wet,
-                        wet_n[:nth])
-    # --- pack the drops, sorted by start cell -------------------------------------------------
-    for r in prange(n0):
-        key[r] = _cell_of(pos[r, 0], pos[r, 1], nx, ny) if mode == 0 else 0
-    _counting_sort(key, n0, nb, counts, slot)
-    for r in prange(n0):
-        o = slot[r]
-        fa[o, X] = pos[r, 0]
-        fa[o, Y] = pos[r, 1]
-        fa[o, VX] = vel[r, 0]
-        fa[o, VY] = vel[r, 1]
-        fa[o, VOL] = volume[r]
-        fa[o, SED] = sediment[r]
-        ia[o, KIND] = kind[r]
-        ia[o, MOV] = moving[r]
-        ia[o, AGE] = age[r]
-        ia[o, RANK] = r
-    # --- move, drain ----------------------------------------------------------------------------
-    nout = _move(ny, nx, sp, h, thickness, roughness, fa, ia, n0, gravity, friction, adh_k,
-                 max_speed, stable_speed, max_age)
+    _height(ny * nx, base, thickness, h, nth)
+    # --- move (reading the caller's arrays, in their order: the cell order of the last step
+    # plus any drops appended since) into packed rows, drain -----------------------------------
+    nout = _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
+                 age, fa, ia, n0, gravity, friction, adh_k, max_speed, stable_speed, max_age)
     if nout:
         _drain(fa, ia, n0, L, sk, stamps, touched, drained, drained_sed)
-    # --- repack the drops still on the grid, sorted by end cell then drop index (unless no
-    # drop left and none changed cell: then they are in that order already) -------------------
-    changed = 0
-    for o in prange(n0):
-        r = ia[o, RANK]
-        if ia[o, OUT]:
-            key[r] = -1
-        else:
-            c = _cell_of(fa[o, X], fa[o, Y], nx, ny)
-            ia[o, CELL] = c
-            k = c if mode == 0 else 0
-            if k != key[r]:
-                changed += 1
-            key[r] = k
+    # --- the one-cell footprint interacts in end-cell order (ties in drop order: a stable
+    # counting sort, skipped when the drops are in that order already); the others in drop order
+    unsorted = 0
+    if mode == 0 and not nout:
+        for o in prange(1, n0):
+            if ia[o, CELL] < ia[o - 1, CELL]:
+                unsorted += 1
     n = n0
-    if nout or changed:
+    if nout or unsorted:
+        for o in prange(n0):
+            key[o] = -1 if ia[o, OUT] else (ia[o, CELL] if mode == 0 else 0)
         n = _counting_sort(key, n0, nb, counts, slot)
         for o in prange(n0):
-            if not ia[o, OUT]:
-                _copy_row(fa, ia, o, fb, ib, slot[ia[o, RANK]])
+            if key[o] >= 0:
+                _copy_row(fa, ia, o, fb, ib, slot[o])
     else:
         fb = fa
         ib = ia
+    # --- release (move and drain read no held water); with the one-cell footprint, evaporate the
+    # cells without drops -----------------------------------------------------------------------
+    _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation if mode == 0 else 0.0,
+             ib, n if mode == 0 else 0, nth)
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread ----------
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
     chunks[0] = 0
@@ -765,27 +811,20 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                   erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
                   deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
                   ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
-                  pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi)
-    # --- the drops with water back into the caller's arrays, in drop order: read from their
-    # packed rows (slot, or key -1 if it left), written front to back -----------------------------
-    m = 0
-    for o in prange(n):
-        if fb[o, VOL] > 0:
-            m += 1
-    if m == n0:                                      # none left: each keeps its index
-        for r in prange(n0):
-            _unpack(fb, ib, slot[r], r, pos, vel, volume, sediment, kind, moving, age)
+                  pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi, evaporated, evaporation)
+    # --- the drops with water back into the caller's arrays, in end-cell order: with the
+    # one-cell footprint the packed order already, compacted chunk by chunk; else sorted ------
+    if mode == 0:
+        m = _compact(fb, ib, n, offsets, nth, pos, vel, volume, sediment, kind, moving, age)
     else:
-        j = 0
-        for r in range(n0):
-            if key[r] >= 0 and fb[slot[r], VOL] > 0:
-                _unpack(fb, ib, slot[r], j, pos, vel, volume, sediment, kind, moving, age)
-                j += 1
-    if evaporation > 0:
-        if mode == 0:
-            _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n[:nth], ib, n)
-        else:
-            _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
+        for o in prange(n):
+            key[o] = ib[o, CELL] if fb[o, VOL] > 0 else -1
+        m = _counting_sort(key, n, ny * nx, counts, slot)
+        for o in prange(n):
+            if key[o] >= 0:
+                _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
+    if evaporation > 0 and mode != 0:
+        _evaporate(ny, nx, sp, h, held, evaporated, evaporation)
     return m
 
 
@@ -815,32 +854,3 @@ def _evaporate(ny, nx, sp, h, held, evaporated, evaporation):
     """particles.evaporate over the whole grid (cells apart)."""
     for c in prange(ny * nx):
         _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
-
-
-@njit(cache=True, nogil=True)
-def _evaporate_listed(ny, nx, sp, h, held, evaporated, evaporation, wet, wet_n, I, n):
-    """particles.evaporate where water can be: the cells wet after the release (``wet``, in
-    ascending chunks) and the cells of the n packed drops (ascending: the one-cell footprint's
-    order), each once.  Absorption only wets a drop's own cell, and each cell's evaporation is
-    its own, so the order of the cells changes no number."""
-    nc = ny * nx
-    nt = wet_n.size
-    o = 0
-    last = -1
-    for t in range(nt):
-        k0 = nc * t // nt
-        for k in range(k0, k0 + wet_n[t]):
-            c = wet[k]
-            while o < n and I[o, CELL] < c:           # the drops' cells before c
-                if I[o, CELL] != last:
-                    last = I[o, CELL]
-                    _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
-                o += 1
-            if c != last:
-                last = c
-                _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
-    while o < n:
-        if I[o, CELL] != last:
-            last = I[o, CELL]
-            _evaporate_cell(last, ny, nx, sp, h, held, evaporated, evaporation)
-        o += 1

@@ -148,6 +148,16 @@ class Drops:
         return Drops(self.pos[keep], self.vel[keep], self.volume[keep], self.sediment[keep],
                      self.kind[keep], self.moving[keep], self.age[keep])
 
+    def in_cell_order(self, shape: tuple[int, int]) -> "Drops":
+        """The drops in the canonical order every step returns: by cell (row-major), drops of
+        one cell in their previous order (a stable sort).  Both step paths keep it, so the
+        compiled path walks the grid and the drops front to back without reordering them
+        twice; a drop's index is therefore not kept across steps."""
+        cell = _cell_of(self.pos, shape)
+        if cell.size < 2 or not np.any(cell[1:] < cell[:-1]):
+            return self
+        return self.take(np.argsort(cell, kind="stable"))
+
     def concat(self, other: "Drops") -> "Drops":
         return Drops(*(np.concatenate([a, b]) for a, b in zip(
             (self.pos, self.vel, self.volume, self.sediment, self.kind, self.moving, self.age),
@@ -535,6 +545,7 @@ def evaporate(s: Surface, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray) -> No
 
 def step(s: Surface, d: Drops, p: "WaterDrops", accelerate: bool | None = None) -> Drops:
     """One time step: move, interact, evaporate; record moving-drop visits in ``path``.
+    Returns the drops still on the grid with water, in cell order (:meth:`Drops.in_cell_order`).
     ``accelerate``: the numba kernels of procgen_water.kernels (same result), see procgen.accel."""
     kern = kernels("procgen_water.kernels", accelerate, len(d), MIN_DROPS)
     if kern is not None:
@@ -547,7 +558,7 @@ def step(s: Surface, d: Drops, p: "WaterDrops", accelerate: bool | None = None) 
         s.path += np.bincount(_cell_of(d.pos[d.moving], s.shape), minlength=s.ncell)
     d = interact(s, d, p, speed, gx, gy, dh)
     evaporate(s, p, gx, gy)          # start-of-step slope: the area changes little in a step
-    return d
+    return d.in_cell_order(s.shape)
 
 
 def make_surface(base: np.ndarray, thickness: np.ndarray, materials, spacing: float = 1.0,

@@ -75,7 +75,7 @@ def _deposit(s: Surface, d: Drops, i: int, amount: float, p: "WaterDrops") -> No
 
 
 def step_loop(s: Surface, d: Drops, p: "WaterDrops") -> Drops:
-    """Same semantics as :func:`particles.step`, drop by drop."""
+    """Same semantics as :func:`particles.step`, drop by drop (and the same drop order out)."""
     ny, nx = s.shape
     a = s.cell_area
     L = s.n_layers
@@ -259,4 +259,4 @@ def step_loop(s: Surface, d: Drops, p: "WaterDrops") -> Drops:
                 budget -= e
                 tot_e += e
             s.evaporated[c] += tot_e
-    return d
+    return d.in_cell_order(s.shape)
