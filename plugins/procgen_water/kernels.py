@@ -415,11 +415,7 @@ def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation, 
                 hi = mid
         o = lo
         for c in range(k0, nc * (t + 1) // nt):
-            wt = False
-            for l in range(L):
-                if held[c, l] != 0:
-                    wt = True
-            if not wt:
+            if not _wet(held, c):
                 continue
             tot = 0.0
             for l in range(L):
@@ -829,14 +825,19 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _wet(held, c):
+    """Whether cell c holds water in any layer."""
+    for l in range(held.shape[1]):
+        if held[c, l] != 0:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation):
     """particles.evaporate at cell c (a no-op on a dry cell), start-of-step gradient."""
     L = held.shape[1]
-    wt = False
-    for l in range(L):
-        if held[c, l] != 0:
-            wt = True
-    if not wt:
+    if not _wet(held, c):
         return
     gx, gy = _grad(h, c, nx, ny, sp)
     budget = evaporation * ((sp * sp) * math.sqrt(1.0 + gx * gx + gy * gy))
