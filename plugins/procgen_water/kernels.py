@@ -45,11 +45,14 @@ import numpy as np
 import numba
 from numba import njit, prange
 
+from procgen.prefetch import prefetch
+
 from . import particles as P
 
 _FOOTPRINTS = {"cell": 0, "bilinear": 1, "disc": 2}
 _ATTR = "_drop_kernel_work"
 _MIN_CHUNK = 2048          # drops per thread below which the interaction runs on fewer threads
+_AHEAD = 8                 # occupied cells (interaction) / drops (move) whose lines are prefetched
 
 # a drop's packed rows: floats (64 bytes) and int32s (32 bytes; KIND..AGE are the Drops fields,
 # CELL / TOP / OUT per-step scratch)
@@ -395,16 +398,17 @@ def _height(nc, base, thickness, h, nt):
 
 @njit(cache=True, nogil=True, parallel=True)
 def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation, I, n, nt):
-    """particles.release_excess in one pass over the grid, in ``nt`` chunks of cells; with
+    """particles.release_excess in one pass over the grid, in ``nt`` chunks of rows; with
     ``evaporation`` > 0 the cells that hold no drop (the ``n`` packed drops, in cell order) then
     evaporate (particles.evaporate: absorption wets only a drop's own cell, so their water is
     final here; the interaction evaporates the drops' cells).  Each cell is its own: neither the
-    chunks nor the order change a number."""
+    chunks nor the order change a number.  Rows and columns are loop counters, so the gradient
+    needs no division."""
     L = thickness.shape[1]
     a = sp * sp
-    nc = ny * nx
     for t in prange(nt):
-        k0 = nc * t // nt
+        j0 = ny * t // nt
+        k0 = j0 * nx
         lo = 0                                   # the first drop at or after this chunk's cells
         hi = n
         while lo < hi:
@@ -414,22 +418,28 @@ def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation, 
             else:
                 hi = mid
         o = lo
-        for c in range(k0, nc * (t + 1) // nt):
-            if not _wet(held, c):
-                continue
-            tot = 0.0
-            for l in range(L):
-                ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
-                if ex > 0:
-                    held[c, l] -= ex
-                    tot += ex
-            if tot > 0:
-                evaporated[c] += tot
-            if evaporation > 0:
-                while o < n and I[o, CELL] < c:
-                    o += 1
-                if not (o < n and I[o, CELL] == c):
-                    _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation)
+        for j in range(j0, ny * (t + 1) // nt):
+            for i in range(nx):
+                c = j * nx + i
+                wet = 0
+                for l in range(L):
+                    wet |= held[c, l] != 0
+                if not wet:
+                    continue
+                tot = 0.0
+                for l in range(L):
+                    ex = max(held[c, l] - capacity[l] * thickness[c, l] * a, 0.0)
+                    if ex > 0:
+                        held[c, l] -= ex
+                        tot += ex
+                if tot > 0:
+                    evaporated[c] += tot
+                if evaporation > 0:
+                    while o < n and I[o, CELL] < c:
+                        o += 1
+                    if not (o < n and I[o, CELL] == c):
+                        gx, gy = _grad_ij(h, c, i, j, nx, ny, sp)
+                        _evaporate_at(c, gx, gy, sp, held, evaporated, evaporation)
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -443,7 +453,15 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
     hi_x = nx * (1 - 1e-12)
     hi_y = ny * (1 - 1e-12)
     nout = 0
+    tf = thickness.reshape(-1)
     for i in prange(n):
+        if i + _AHEAD < n:                   # the gradient stencil's rows of a drop ahead
+            ca = _cell_of(pos[i + _AHEAD, 0], pos[i + _AHEAD, 1], nx, ny)
+            prefetch(h, max(ca - nx - 1, 0))
+            prefetch(h, ca - 1 if ca > 0 else 0)
+            prefetch(h, min(ca + nx - 1, h.size - 1))
+            prefetch(h, min(ca + 2 * nx - 1, h.size - 1))
+            prefetch(tf, ca * L)
         x = pos[i, 0]
         y = pos[i, 1]
         F[i, X] = x
@@ -548,6 +566,28 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
         drained_sed[key // L] += sk[key - kb, 1]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _prefetch_cell(I, p, n, nx, L, tf, hf, df, path, evaporated, h):
+    """Prefetch the lines the interaction reads of the cell of packed drop p (its layers, held
+    water, deposit, path and evaporation ledger, the gradient's three height rows); returns the
+    first drop of the next cell."""
+    if p >= n:
+        return p
+    c = I[p, CELL]
+    prefetch(tf, c * L)
+    prefetch(hf, c * L)
+    prefetch(df, c * L)
+    prefetch(path, c)
+    prefetch(evaporated, c)
+    prefetch(h, c)
+    prefetch(h, max(c - nx, 0))
+    prefetch(h, min(c + nx, h.size - 1))
+    p += 1
+    while p < n and I[p, CELL] == c:
+        p += 1
+    return p
+
+
 @njit(cache=True, nogil=True)
 def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
@@ -565,9 +605,14 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
     fc = pkey
     fw = pairs[:, 0]
     pdem = pairs[:, 1]
+    ahead = lo                    # mode 0: the first drop of the cell _AHEAD cells on
+    if mode == 0:
+        for _ in range(_AHEAD):
+            ahead = _prefetch_cell(I, ahead, n, nx, L, tf, hf, df, path, evaporated, h)
     while lo < n:
         rows, kb, hi = sk, 0, n
         if mode == 0:
+            ahead = _prefetch_cell(I, ahead, n, nx, L, tf, hf, df, path, evaporated, h)
             c0 = I[lo, CELL]
             hi = lo + 1
             while hi < n and I[hi, CELL] == c0:
@@ -836,10 +881,16 @@ def _wet(held, c):
 @njit(cache=True, nogil=True, inline="always")
 def _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation):
     """particles.evaporate at cell c (a no-op on a dry cell), start-of-step gradient."""
-    L = held.shape[1]
     if not _wet(held, c):
         return
     gx, gy = _grad(h, c, nx, ny, sp)
+    _evaporate_at(c, gx, gy, sp, held, evaporated, evaporation)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _evaporate_at(c, gx, gy, sp, held, evaporated, evaporation):
+    """particles.evaporate at wet cell c whose surface gradient is (gx, gy)."""
+    L = held.shape[1]
     budget = evaporation * ((sp * sp) * math.sqrt(1.0 + gx * gx + gy * gy))
     total = 0.0
     for l in range(L - 1, -1, -1):
