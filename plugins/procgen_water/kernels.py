@@ -245,11 +245,8 @@ def _height_at(h, x, y, nx, ny):
 
 @njit(cache=True, nogil=True, inline="always")
 def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
-    """Cells and weights of one drop's footprint into cells/w[base:base + k]; returns k."""
-    if mode == 0:
-        cells[base] = _cell_of(x, y, nx, ny)
-        w[base] = 1.0
-        return 1
+    """Cells and weights of a drop's wider footprint (bilinear, disc) at (x, y) into
+    cells/w[base:base + k]; returns k."""
     if mode == 1:
         c, fu, fv = _corners(x, y, nx, ny)
         cells[base] = c
@@ -280,6 +277,17 @@ def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _drop_footprint(F, I, i, nx, ny, mode, oy, ox, ow, cells, w, base):
+    """_footprint of packed drop i on the grid: the one-cell footprint is its cell, already in
+    its CELL slot (the move computed it from the same position)."""
+    if mode == 0:
+        cells[base] = I[i, CELL]
+        w[base] = 1.0
+        return 1
+    return _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, cells, w, base)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _add(sk, kb, stamp, touched, nt, key, x):
     """sk[key - kb, 0] += x for this phase (``stamp``): the first touch zeroes the row's columns
     0-1 and records the key, so no pass is needed to clean up afterwards."""
@@ -299,7 +307,7 @@ def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched,
     sk[:, 3] (zero at rest; only positive terms, so a key is new while its sum is 0)."""
     if I[i, KIND] < 0:
         raise AssertionError("a drop carrying sediment has no sediment kind")
-    k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, 0)
+    k = _drop_footprint(F, I, i, nx, ny, mode, oy, ox, ow, fc, fw, 0)
     for q in range(k):
         x = amount * fw[q]
         if x != 0.0:
@@ -567,6 +575,15 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _cell_layer(key, L, mode, c0, kb):
+    """(cell, layer) of a key; with the one-cell footprint the keys are the cell c0's own (rows
+    from kb = c0 * L), so no integer division."""
+    if mode == 0:
+        return c0, key - kb
+    return key // L, key % L
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _prefetch_cell(I, p, n, nx, L, tf, hf, df, path, evaporated, h):
     """Prefetch the lines the interaction reads of the cell of packed drop p (its layers, held
     water, deposit, path and evaporation ledger, the gradient's three height rows); returns the
@@ -609,6 +626,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
     if mode == 0:
         for _ in range(_AHEAD):
             ahead = _prefetch_cell(I, ahead, n, nx, L, tf, hf, df, path, evaporated, h)
+    c0 = 0
     while lo < n:
         rows, kb, hi = sk, 0, n
         if mode == 0:
@@ -649,8 +667,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
         if wants:             # (no demand: nothing granted, no volume or sediment changes)
             for t in range(nt):                       # per key: the granted total, into held
                 key = touched[t]
-                c = key // L
-                l = key % L
+                c, l = _cell_layer(key, L, mode, c0, kb)
                 cap = capacity[l] * thickness[c, l] * a
                 got = min(rows[key - kb, 0], max(cap - held[c, l], 0.0))
                 rows[key - kb, 1] = got
@@ -682,7 +699,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             cd = I[i, KIND] if I[i, KIND] >= 0 else I[i, TOP]
             if not (cd >= 0 and erodible[cd]):
                 continue
-            k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, kk)
+            k = _drop_footprint(F, I, i, nx, ny, mode, oy, ox, ow, fc, fw, kk)
             per_drop = 0.0
             for q in range(kk, kk + k):
                 pc = fc[q]
@@ -735,8 +752,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                     tf[key] = t_new
                     df[key] = max(df[key] - (t_old - t_new), 0.0)
                     corr = actual / got
-                    c = key // L
-                    l = key % L
+                    c, l = _cell_layer(key, L, mode, c0, kb)
                     capn = capacity[l] * thickness[c, l] * a
                     excess = max(hf[key] - capn, 0.0) if actual > 0 else 0.0
                     if excess > 0:
