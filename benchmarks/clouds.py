@@ -15,11 +15,17 @@ N_v (vertices made), N_s, tiles, the tile sampler and peak RSS, then the ratios 
 (target >= 3) and lazy 8000/lazy 2000 (target <= 1.1).
 
     python benchmarks/clouds.py [--seeds 1 2] [--radius 4]
+    python benchmarks/clouds.py --paths [--size 400] [--steps 1500]
+
+``--paths`` instead prints the snaxel event handling on the numpy path, the compiled path and
+a trivial kernel, their ratio, the distance to the limit and peak RSS (benchmarks/snaxel_events.py,
+issue 16), so the cloud benchmarks print those figures too.
 """
 from __future__ import annotations
 
 import argparse
 import resource
+import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -92,6 +98,11 @@ def one(kind: str, size: float, seed: int, radius: float) -> dict:
 
 
 def main() -> None:
+    if "--paths" in sys.argv or "--path" in sys.argv:    # (its children come back here too)
+        import snaxel_events
+        if "--paths" in sys.argv:
+            sys.argv.remove("--paths")
+        return snaxel_events.main()
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--radius", type=float, default=4.0)
