@@ -127,6 +127,8 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
     oy, ox, ow = P._disc_offsets(p.brush_radius) if fp == 2 else (np.zeros(1, np.int64),) * 2 + (np.ones(1),)
     k = ox.size if fp == 2 else (4 if fp == 1 else 1)
     n = len(d)
+    if np.any((d.sediment > 0) & (d.kind < 0)):     # (erosion sets a kind with the first sediment)
+        raise AssertionError("a drop carrying sediment has no sediment kind")
     work.grow(n, k)
     pos, vel = np.ascontiguousarray(d.pos), np.ascontiguousarray(d.vel)
     kind, moving, age = d.kind, d.moving, d.age
@@ -142,7 +144,8 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               float(p.gravity), float(p.friction), float(adh_k), float(p.max_speed),
               float(p.stable_speed), int(p.max_age), float(p.speed_ref), float(p.evaporation),
               cap_k, float(p.min_slope), float(p.deposition_rate), float(p.max_concentration),
-              bool(p.erode_stabilised), fade, fp, oy.astype(np.int64), ox.astype(np.int64),
+              bool(p.erode_stabilised), fade, (0,) * (fp + 1), (0,) * int(cap_k >= 0),
+              oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
               work.chunks, work.offsets, min(numba.get_num_threads(), work.chunks.size - 1),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
@@ -160,21 +163,28 @@ def _clip(x, lo, hi):
 
 @njit(cache=True, nogil=True)
 def _pairwise_sum(a, start, n):
-    """numpy's row sum (pairwise_sum: sequential below 8 terms, 8 accumulators up to 128)."""
+    """numpy's row sum (pairwise_sum: sequential below 8 terms, 8 accumulators up to 128); the
+    accumulators are scalars, so no allocation (which would slow every kernel inlining this)."""
     if n < 8:
         res = 0.0
         for i in range(n):
             res += a[start + i]
         return res
-    r = np.empty(8)
-    for j in range(8):
-        r[j] = a[start + j]
+    r0, r1, r2, r3 = a[start], a[start + 1], a[start + 2], a[start + 3]
+    r4, r5, r6, r7 = a[start + 4], a[start + 5], a[start + 6], a[start + 7]
     i = 8
     while i < n - (n % 8):
-        for j in range(8):
-            r[j] += a[start + i + j]
+        b = start + i
+        r0 += a[b]
+        r1 += a[b + 1]
+        r2 += a[b + 2]
+        r3 += a[b + 3]
+        r4 += a[b + 4]
+        r5 += a[b + 5]
+        r6 += a[b + 6]
+        r7 += a[b + 7]
         i += 8
-    res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
     while i < n:
         res += a[start + i]
         i += 1
@@ -305,17 +315,22 @@ def _add(sk, kb, stamp, touched, nt, key, x):
 def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd):
     """Add drop i's deposit of ``amount`` > 0 over its footprint to the deposit column
     sk[:, 3] (zero at rest; only positive terms, so a key is new while its sum is 0)."""
-    if I[i, KIND] < 0:
-        raise AssertionError("a drop carrying sediment has no sediment kind")
-    k = _drop_footprint(F, I, i, nx, ny, mode, oy, ox, ow, fc, fw, 0)
+    if mode == 0:                     # its own cell (the footprint's weight 1 changes nothing)
+        return _lay_key(I[i, CELL] * L + I[i, KIND], amount, sk, kb, dtouched, nd)
+    k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, 0)
     for q in range(k):
         x = amount * fw[q]
         if x != 0.0:
-            key = fc[q] * L + I[i, KIND]
-            if sk[key - kb, 3] == 0.0:
-                dtouched[nd] = key
-                nd += 1
-            sk[key - kb, 3] += x
+            nd = _lay_key(fc[q] * L + I[i, KIND], x, sk, kb, dtouched, nd)
+    return nd
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _lay_key(key, x, sk, kb, dtouched, nd):
+    if sk[key - kb, 3] == 0.0:
+        dtouched[nd] = key
+        nd += 1
+    sk[key - kb, 3] += x
     return nd
 
 
@@ -608,8 +623,8 @@ def _prefetch_cell(I, p, n, nx, L, tf, hf, df, path, evaporated, h):
 @njit(cache=True, nogil=True)
 def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
-              deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy, ox,
-              ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n, evaporated,
+              deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag,
+              oy, ox, ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n, evaporated,
               evaporation):
     """particles.interact (and the path count) over the packed drops lo..n-1, each key's sum in row
     key - kb of ``rows``.  With the one-cell footprint the drops come in (cell, drop) order and
@@ -617,7 +632,9 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
     of ``cell_sk`` (kb = cell * L): no number changes while each cell's data stays in cache.
     Otherwise the drops come in drop order and the phases run once over all of them on the
     grid's rows ``sk`` (kb = 0).  Empty drops are left with volume 0 (the caller drops them)."""
-    L = thickness.shape[1]
+    mode = len(fptag) - 1             # the footprint and whether drops have a sediment capacity:
+    capacity_on = len(captag) > 0     # tuple lengths, so each combination compiles on its own
+    L = thickness.shape[1]            # and the branches of the others vanish from its loops
     a = sp * sp
     fc = pkey
     fw = pairs[:, 0]
@@ -715,7 +732,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                     pdem[q] = 0.0
                 per_drop += pdem[q]
             rm = max_concentration * F[i, VOL] - F[i, SED]
-            if cap_k >= 0:
+            if capacity_on:
                 gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
                 slope = math.hypot(gx, gy)
                 capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
@@ -777,7 +794,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             for t in range(nrel):
                 rows[dtouched[t] - kb, 3] = 0.0
         # --- deposition beyond the capacity -------------------------------------------------------
-        if cap_k >= 0:
+        if capacity_on:
             nd = 0
             for i in range(lo, hi):
                 gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
@@ -810,9 +827,10 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           absorption_rate, capacity, erosion_rate, threshold, roughness, absorbs, erodible,
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
-          cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, mode,
-          oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, offsets, nth, min_chunk,
+          cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, fptag,
+          captag, oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, offsets, nth, min_chunk,
           fa, ia, fb, ib, rk, ent, pairs, pkey, touched, dtouched):
+    mode = len(fptag) - 1                         # compile-time constants (see _interact)
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
     key = rk[:, 0]
@@ -866,7 +884,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         st = t + 1 if mode == 0 else 0                # sk's stamp, or the thread's own
         _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
                   erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
-                  deposition_rate, max_concentration, erode_stabilised, max_age, fade, mode, oy,
+                  deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag, oy,
                   ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
                   pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi, evaporated, evaporation)
     # --- the drops with water back into the caller's arrays, in end-cell order: with the
