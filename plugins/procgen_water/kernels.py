@@ -653,9 +653,10 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             while hi < n and I[hi, CELL] == c0:
                 hi += 1
             rows, kb = cell_sk, c0 * L
+        top0 = _top(thickness, c0, L) if mode == 0 else 0      # (one cell: one exposed layer)
         for i in range(lo, hi):
             c = I[i, CELL]
-            I[i, TOP] = _top(thickness, c, L)
+            I[i, TOP] = top0 if mode == 0 else _top(thickness, c, L)
             if I[i, MOV]:
                 path[c] += 1.0
         # --- absorption (demand per key, grant, deposition by concentration) ---------------------
