@@ -88,6 +88,7 @@ class Work:
         self.fb = np.empty((self.cap, 8))              # packed drops, sorted by end cell
         self.ib = np.empty((self.cap, 8), np.int32)
         self.rk = np.empty((self.cap, 2), np.int32)    # per drop index: sort key, slot
+        self.starts = np.empty(self.cap + 1, np.int32)  # per occupied cell: its first drop
         self.ent = np.empty((self.cap + 1, 4), np.int64)  # per entry: drop, first pair, layer, key
         self.pairs = np.empty((self.pcap, 2))          # per pair: footprint weight, demand
         self.pkey = np.empty(self.pcap, np.int64)      # per pair: cell, then key
@@ -95,7 +96,7 @@ class Work:
         self.dtouched = np.empty(self.pcap, np.int64)
 
     def _drop_arrays(self):
-        return (self.fa, self.ia, self.fb, self.ib, self.rk, self.ent)
+        return (self.fa, self.ia, self.fb, self.ib, self.rk, self.starts, self.ent)
 
     @property
     def grid_bytes(self) -> int:
@@ -148,7 +149,7 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
               work.chunks, work.offsets, min(numba.get_num_threads(), work.chunks.size - 1),
-              _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.ent, work.pairs, work.pkey,
+              _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.starts, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
@@ -589,6 +590,22 @@ def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
         drained_sed[key // L] += sk[key - kb, 1]
 
 
+@njit(cache=True, nogil=True)
+def _cell_starts(I, n, starts):
+    """starts[k] = the first of the n packed drops (in cell order) in the k-th occupied cell,
+    starts[m] = n; returns m.  Without a branch per drop: the slot after the last cell found is
+    rewritten by every drop until one opens a new cell."""
+    m = 0
+    prev = -1
+    for o in range(n):
+        c = I[o, CELL]
+        starts[m] = o
+        m += c != prev
+        prev = c
+    starts[m] = n
+    return m
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _cell_layer(key, L, mode, c0, kb):
     """(cell, layer) of a key; with the one-cell footprint the keys are the cell c0's own (rows
@@ -599,13 +616,9 @@ def _cell_layer(key, L, mode, c0, kb):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _prefetch_cell(I, p, n, nx, L, tf, hf, df, path, evaporated, h):
-    """Prefetch the lines the interaction reads of the cell of packed drop p (its layers, held
-    water, deposit, path and evaporation ledger, the gradient's three height rows); returns the
-    first drop of the next cell."""
-    if p >= n:
-        return p
-    c = I[p, CELL]
+def _prefetch_cell(c, nx, L, tf, hf, df, path, evaporated, h):
+    """Prefetch the lines the interaction reads of cell c (its layers, held water, deposit, path
+    and evaporation ledger, the gradient's three height rows)."""
     prefetch(tf, c * L)
     prefetch(hf, c * L)
     prefetch(df, c * L)
@@ -614,24 +627,22 @@ def _prefetch_cell(I, p, n, nx, L, tf, hf, df, path, evaporated, h):
     prefetch(h, c)
     prefetch(h, max(c - nx, 0))
     prefetch(h, min(c + nx, h.size - 1))
-    p += 1
-    while p < n and I[p, CELL] == c:
-        p += 1
-    return p
 
 
 @njit(cache=True, nogil=True)
 def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag,
-              oy, ox, ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, lo, n, evaporated,
-              evaporation):
-    """particles.interact (and the path count) over the packed drops lo..n-1, each key's sum in row
-    key - kb of ``rows``.  With the one-cell footprint the drops come in (cell, drop) order and
-    a key hears only its own cell's drops, so the phases run one cell at a time on the few rows
-    of ``cell_sk`` (kb = cell * L): no number changes while each cell's data stays in cache.
-    Otherwise the drops come in drop order and the phases run once over all of them on the
-    grid's rows ``sk`` (kb = 0).  Empty drops are left with volume 0 (the caller drops them)."""
+              oy, ox, ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, starts, k0,
+              k1, evaporated, evaporation):
+    """particles.interact (and the path count) over the groups k0..k1-1 of packed drops, group k
+    being drops starts[k]..starts[k + 1] - 1, each key's sum in row key - kb of ``rows``.  With the
+    one-cell footprint a group is an occupied cell's drops (in drop order) and a key hears only
+    its own cell's drops, so the phases run one cell at a time on the few rows of ``cell_sk``
+    (kb = cell * L): no number changes while each cell's data stays in cache, and the lines of
+    the cell _AHEAD groups on are prefetched.  Otherwise one group holds all drops in drop order
+    and the phases run once over them on the grid's rows ``sk`` (kb = 0).  Empty drops are left
+    with volume 0 (the caller drops them)."""
     mode = len(fptag) - 1             # the footprint and whether drops have a sediment capacity:
     capacity_on = len(captag) > 0     # tuple lengths, so each combination compiles on its own
     L = thickness.shape[1]            # and the branches of the others vanish from its loops
@@ -639,19 +650,18 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
     fc = pkey
     fw = pairs[:, 0]
     pdem = pairs[:, 1]
-    ahead = lo                    # mode 0: the first drop of the cell _AHEAD cells on
     if mode == 0:
-        for _ in range(_AHEAD):
-            ahead = _prefetch_cell(I, ahead, n, nx, L, tf, hf, df, path, evaporated, h)
+        for k in range(k0, min(k0 + _AHEAD, k1)):
+            _prefetch_cell(I[starts[k], CELL], nx, L, tf, hf, df, path, evaporated, h)
     c0 = 0
-    while lo < n:
-        rows, kb, hi = sk, 0, n
+    for k in range(k0, k1):
+        lo = starts[k]
+        hi = starts[k + 1]
+        rows, kb = sk, 0
         if mode == 0:
-            ahead = _prefetch_cell(I, ahead, n, nx, L, tf, hf, df, path, evaporated, h)
+            if k + _AHEAD < k1:
+                _prefetch_cell(I[starts[k + _AHEAD], CELL], nx, L, tf, hf, df, path, evaporated, h)
             c0 = I[lo, CELL]
-            hi = lo + 1
-            while hi < n and I[hi, CELL] == c0:
-                hi += 1
             rows, kb = cell_sk, c0 * L
         top0 = _top(thickness, c0, L) if mode == 0 else 0      # (one cell: one exposed layer)
         for i in range(lo, hi):
@@ -819,8 +829,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                 F[i, SED] -= s_
         _laid(a, tf, df, rows, kb, dtouched, nd)
         if mode == 0 and evaporation > 0:       # the cell's water is final: evaporate it now
-            _evaporate_cell(I[lo, CELL], ny, nx, sp, h, held, evaporated, evaporation)
-        lo = hi
+            _evaporate_cell(c0, ny, nx, sp, h, held, evaporated, evaporation)
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -830,7 +839,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, fptag,
           captag, oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, offsets, nth, min_chunk,
-          fa, ia, fb, ib, rk, ent, pairs, pkey, touched, dtouched):
+          fa, ia, fb, ib, rk, starts, ent, pairs, pkey, touched, dtouched):
     mode = len(fptag) - 1                         # compile-time constants (see _interact)
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
@@ -869,17 +878,20 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     _release(ny, nx, sp, thickness, held, capacity, evaporated, h, evaporation if mode == 0 else 0.0,
              ib, n if mode == 0 else 0, nth)
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread ----------
+    if mode == 0:                                 # the occupied cells' first drops
+        ncell = _cell_starts(ib, n, starts)
+    else:                                         # one group: all drops
+        ncell = 1
+        starts[0] = 0
+        starts[1] = n
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
-    chunks[0] = 0
+    chunks[0] = 0                                 # per thread: whole cells, about n / nt drops
     for t in range(1, nt):
-        b = max(n * t // nt, chunks[t - 1])
-        while b < n and ib[b, CELL] == ib[b - 1, CELL]:
-            b += 1
-        chunks[t] = b
-    chunks[nt] = n
+        chunks[t] = max(np.searchsorted(starts[:ncell], n * t // nt), chunks[t - 1])
+    chunks[nt] = ncell
     for t in prange(nt):
-        lo = chunks[t]
-        hi = chunks[t + 1]
+        lo = starts[chunks[t]]
+        hi = starts[chunks[t + 1]]
         e = hi + 1 if mode == 0 else ent.shape[0]     # scratch of the other footprints: all of it
         q = hi + 1 if mode == 0 else pairs.shape[0]
         st = t + 1 if mode == 0 else 0                # sk's stamp, or the thread's own
@@ -887,7 +899,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                   erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
                   deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag, oy,
                   ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
-                  pkey[lo:q], touched[lo:q], dtouched[lo:q], lo, hi, evaporated, evaporation)
+                  pkey[lo:q], touched[lo:q], dtouched[lo:q], starts, chunks[t], chunks[t + 1],
+                  evaporated, evaporation)
     # --- the drops with water back into the caller's arrays, in end-cell order: with the
     # one-cell footprint the packed order already, compacted chunk by chunk; else sorted ------
     if mode == 0:
