@@ -26,7 +26,14 @@ final once its drops have interacted (absorption wets only a drop's own cell), s
 without drops evaporate in the release pass and the drops' cells at the end of their
 interaction, while their rows are in cache: no separate evaporation pass.
 
-Threads (numba's, see procgen.accel): the grid passes run in chunks of cells, the drops' move
+Speed (a loop like this one mostly waits for memory and for mispredicted branches): the footprint and whether drops have a sediment capacity are tuple-length tags, so numba
+compiles each combination on its own and the others' branches vanish from the interaction
+(a third faster); the interaction walks a list of the occupied cells' first drops and prefetches
+(procgen.prefetch) the grid lines of the cell ``_AHEAD`` cells on, the move those of the drop
+``_AHEAD`` drops on: the occupied cells are sorted but sparse, a pattern the hardware does not
+guess.
+
+Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops' move
 and the write-back in chunks of drops, and with the one-cell footprint the interaction in chunks
 of whole cells (each with its own key rows and scratch); every number belongs to one cell or one
 drop, so the result does not depend on the thread count.  The counting sort, the drain and the
