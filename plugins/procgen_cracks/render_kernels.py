@@ -9,10 +9,10 @@ nothing per pair.  Imported only through :func:`procgen.accel.kernels` (needs nu
 
 Same bytes: every float expression keeps the numpy path's operations in its order (products
 left to right, ``np.linalg.norm`` of a 2-vector as sqrt(x*x + y*y), the 24 Gauss terms of a
-micro-cell summed as numpy's pairwise sum does: eight running sums, then ((r0 + r1) + (r2 +
-r3)) + ((r4 + r5) + (r6 + r7))), and the result is a maximum, which no visiting order changes:
-a pair is skipped only when its upper bound is below the micro-cell's current value, as on the
-numpy path (tests/test_crack_render_kernels.py compares the coverage and the exported files).
+micro-cell summed in numpy's pairwise order, procgen.pairwise), and the result is a maximum,
+which no visiting order changes: a pair is skipped only when its upper bound is below the
+micro-cell's current value, as on the numpy path (tests/test_crack_render_kernels.py compares
+the coverage and the exported files).
 Serial: the micro-cells of one crack are reached from several pieces, so a parallel loop would
 race on the maximum.
 """
@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from procgen.pairwise import pairwise_sum
 
 # profile codes, in render.PROFILES order
 CONSTANT, V_LINEAR, V_PARA_A, V_PARA_B, U_LINEAR, U_PARA_A, U_PARA_B = range(7)
@@ -117,19 +119,7 @@ def coverage(dist, c, s, ct, cs, profile, saturation, gl_x, gl_w, bp, terms):
             x = mid + rad * gl_x[j]
             f = _density(abs(x), ct, kk, d, constant, cs, profile)
             terms[3 * i + j] = f * _chord(x - dist, cs, c, s) * gl_w[j] * rad
-    r0, r1, r2, r3 = terms[0], terms[1], terms[2], terms[3]
-    r4, r5, r6, r7 = terms[4], terms[5], terms[6], terms[7]
-    for i in range(8, 24, 8):
-        r0 += terms[i]
-        r1 += terms[i + 1]
-        r2 += terms[i + 2]
-        r3 += terms[i + 3]
-        r4 += terms[i + 4]
-        r5 += terms[i + 5]
-        r6 += terms[i + 6]
-        r7 += terms[i + 7]
-    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    return _clip(total / cs, 0.0, 1.0)
+    return _clip(pairwise_sum(terms, 0, 24) / cs, 0.0, 1.0)
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -52,6 +52,7 @@ import numpy as np
 import numba
 from numba import njit, prange
 
+from procgen.pairwise import pairwise_sum
 from procgen.prefetch import prefetch
 
 from . import particles as P
@@ -169,36 +170,6 @@ def _clip(x, lo, hi):
     return min(max(x, lo), hi)
 
 
-@njit(cache=True, nogil=True)
-def _pairwise_sum(a, start, n):
-    """numpy's row sum (pairwise_sum: sequential below 8 terms, 8 accumulators up to 128); the
-    accumulators are scalars, so no allocation (which would slow every kernel inlining this)."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[start + i]
-        return res
-    r0, r1, r2, r3 = a[start], a[start + 1], a[start + 2], a[start + 3]
-    r4, r5, r6, r7 = a[start + 4], a[start + 5], a[start + 6], a[start + 7]
-    i = 8
-    while i < n - (n % 8):
-        b = start + i
-        r0 += a[b]
-        r1 += a[b + 1]
-        r2 += a[b + 2]
-        r3 += a[b + 3]
-        r4 += a[b + 4]
-        r5 += a[b + 5]
-        r6 += a[b + 6]
-        r7 += a[b + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[start + i]
-        i += 1
-    return res
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _grad_ij(h, c, i, j, nx, ny, sp):
     """(dh/dx, dh/dy) at cell c = (column i, row j): np.gradient's central / one-sided
@@ -292,7 +263,7 @@ def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
         else:
             cells[base + q] = 0
             w[base + q] = 0.0
-    tot = _pairwise_sum(w, base, k)
+    tot = pairwise_sum(w, base, k)
     for q in range(k):
         w[base + q] = w[base + q] / tot
     return k
