@@ -54,7 +54,7 @@ class Work:
         self.indices = graph.indices.astype(np.int32 if n < 2 ** 31 else np.int64)
         self.direction = np.ascontiguousarray(graph.direction)
         self.nchunk = max(1, min(256, n // 4096))
-        self.counts = np.zeros((2, self.nchunk), np.int64)   # corroded / front cells per chunk
+        self.counts = np.zeros((3, self.nchunk), np.int64)   # corroded / front / pool cells per chunk
         self.corr = np.empty(n, self.indices.dtype)          # corroded cells, per chunk slice
         self.front = np.empty(n, self.indices.dtype)         # the front (chunk slices, then joined)
         self.eoff = np.empty(n + 1, np.int64)     # first entry of each front row (+ the end)
@@ -100,11 +100,12 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
     if room > 0 and prm.seed_rate > 0:
         want = int(rng.binomial(n, prm.seed_rate)) if prm.seeding == "binomial" else int(np.floor(prm.seed_rate * n))
         if min(want, room) > 0:
-            npool = int(_pool_size(st.status, st.consumable, blk, st.strong))
+            npool = int(_pool_size(st.status, st.consumable, blk, st.strong, work.counts[2]))
             k = min(want, room, npool)
             if k > 0:
                 idx = rng.choice(npool, k, replace=False)
-                seeds = _pool_members(st.status, st.consumable, blk, st.strong, np.asarray(idx, np.int64))
+                seeds = _pool_members(st.status, st.consumable, blk, st.strong, work.counts[2],
+                                      np.asarray(idx, np.int64))
                 out.seed_cells = seeds
                 st.seeds_used += k
                 out.new_seeds = k
@@ -205,30 +206,41 @@ def _scan(indptr, indices, status, consumable, blocked, corr, front, counts, eof
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _pool_size(status, consumable, blocked, strong):
-    """Cells of the weak open pool (seeding steps only)."""
-    m = 0
-    for c in prange(status.size):
-        if not strong[c] and _is_open(status, consumable, blocked, c):
-            m += 1
-    return m
+def _pool_size(status, consumable, blocked, strong, per):
+    """Cells of the weak open pool (seeding steps only), per chunk of cells into ``per``."""
+    n = status.size
+    for b in prange(per.size):
+        c0, c1 = _chunk(b, n, per.size)
+        m = 0
+        if blocked.size:
+            for c in range(c0, c1):
+                m += (status[c] == NORMAL) & (not strong[c]) & (_has_metal(consumable, c) > 0) & (not blocked[c])
+        else:
+            for c in range(c0, c1):
+                m += (status[c] == NORMAL) & (not strong[c]) & (_has_metal(consumable, c) > 0)
+        per[b] = m
+    return per.sum()
 
 
 @njit(cache=True, nogil=True)
-def _pool_members(status, consumable, blocked, strong, idx):
-    """The cells at positions idx of the weak open pool (np.nonzero order)."""
-    order = np.argsort(idx)
+def _pool_members(status, consumable, blocked, strong, per, idx):
+    """The cells at positions idx of the weak open pool (np.nonzero order): each is looked
+    for in its chunk only (``per``: the pool cells of each chunk, from :func:`_pool_size`)."""
+    n = status.size
     out = np.empty(idx.size, np.int64)
-    k = 0
-    seen = 0
-    for c in range(status.size):
-        if not strong[c] and _is_open(status, consumable, blocked, c):
-            while k < idx.size and idx[order[k]] == seen:
-                out[order[k]] = c
-                k += 1
-            seen += 1
-            if k == idx.size:
-                break
+    for i in range(idx.size):
+        b = 0
+        seen = 0
+        while seen + per[b] <= idx[i]:
+            seen += per[b]
+            b += 1
+        c0, c1 = _chunk(b, n, per.size)
+        for c in range(c0, c1):
+            if not strong[c] and _is_open(status, consumable, blocked, c):
+                if seen == idx[i]:
+                    out[i] = c
+                    break
+                seen += 1
     return out
 
 
