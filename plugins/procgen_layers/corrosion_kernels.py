@@ -287,21 +287,16 @@ def _choose(indptr, indices, direction, weights, logw, age, age_step, max_attack
         for j in range(j0, j1):
             w = key[e + j]
             key[e + j] = math.log(u[e + j]) / w if w > 0 else -math.inf
-        per = 0
-        for j in range(j0, j1):
             pick[e + j] = 0
-            kj = key[e + j]
-            if not math.isfinite(kj):
-                continue
-            rank = 0
-            for q in range(j0, j1):
-                kq = key[e + q]
-                if kq > kj or (kq == kj and q < j):
-                    rank += 1
-            if rank < n_a:
-                per += 1
-                pick[e + j] = 1
-        attacks[c] = per
+        for _ in range(n_a):                    # n_a < n_fin: the n_a largest finite keys, one
+            best = -math.inf                    # argmax at a time (strict >: the first of equals)
+            bj = j0
+            for j in range(j0, j1):
+                if key[e + j] > best and not pick[e + j]:
+                    best = key[e + j]
+                    bj = j
+            pick[e + bj] = 1
+        attacks[c] = n_a
         valid_nbrs[c] = n_vc
 
 
