@@ -347,12 +347,11 @@ def _judge(indptr, indices, status, front, chosen, chosen_row, nch, helpers, noi
         r = chosen_row[i]
         t = indices[chosen[i]]
         attack = a0 + a1 * age[front[r]] + a2 * helpers[r] + noise_amp * noise[i]
-        sh = 0.0
-        for q in range(indptr[t], indptr[t + 1]):
+        sh = 0                                  # strong normal neighbours (branch-free:
+        for q in range(indptr[t], indptr[t + 1]):   # strong cells are a random share)
             x = indices[q]
-            if strong[x] and status[x] == NORMAL:
-                sh += 1.0
-        defence = b0 + b1 * sh + strong_bonus * (1.0 if strong[t] else 0.0)
+            sh += strong[x] & (status[x] == NORMAL)
+        defence = b0 + b1 * float(sh) + strong_bonus * (1.0 if strong[t] else 0.0)
         hit[i] = attack > defence
 
 
