@@ -115,7 +115,7 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
         rng.random(out=work.u[:ne])
         logw = np.zeros(0) if edge_logw is None else np.asarray(edge_logw, dtype=float)
         _choose(work.indptr, work.indices, work.direction, np.asarray(weights, float), logw, st.age,
-                float(prm.age_step), int(prm.max_attacks), st.status, st.consumable, blk, work.front,
+                float(prm.age_step), _integral(prm.age_step), int(prm.max_attacks), st.status, st.consumable, blk, work.front,
                 work.eoff, nfront, work.u, work.key, work.pick, work.helpers, st.attacks, st.valid_neighbours)
         nch, mx, viol = _list_attacks(work.indptr, work.front, work.eoff, work.coff, nfront, work.pick,
                                       st.attacks, st.valid_neighbours, int(prm.max_attacks), work.chosen,
@@ -245,7 +245,7 @@ def _pool_members(status, consumable, blocked, strong, per, idx):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _choose(indptr, indices, direction, weights, logw, age, age_step, max_attacks, status, consumable,
+def _choose(indptr, indices, direction, weights, logw, age, age_step, istep, max_attacks, status, consumable,
             blocked, front, eoff, nfront, u, key, pick, helpers, attacks, valid_nbrs):
     """weighted_top_k per front cell: keys log(u)/w, the n_a largest (ties: entry order) are
     picked (pick = 1), in parallel over the front rows (each row writes only its own entries
@@ -275,12 +275,14 @@ def _choose(indptr, indices, direction, weights, logw, age, age_step, max_attack
             elif status[t] == CORRODED:
                 hp += 1.0
             key[e + j] = w
+            pick[e + j] = w > 0
         helpers[r] = hp
-        f1 = min(max(1 + int(age[c] // age_step), 1), max_attacks)
+        if istep > 0:                           # an integral age_step: the same quotient
+            f1 = min(max(1 + age[c] // istep, 1), max_attacks)
+        else:
+            f1 = min(max(1 + int(age[c] // age_step), 1), max_attacks)
         n_a = min(f1, n_vc)
-        if n_a >= n_fin:
-            for j in range(j0, j1):
-                pick[e + j] = key[e + j] > 0
+        if n_a >= n_fin:                        # every finite key is picked
             attacks[c] = n_fin
             valid_nbrs[c] = n_vc
             continue
@@ -298,6 +300,11 @@ def _choose(indptr, indices, direction, weights, logw, age, age_step, max_attack
             pick[e + bj] = 1
         attacks[c] = n_a
         valid_nbrs[c] = n_vc
+
+
+def _integral(x: float) -> int:
+    """x as an int when it is a whole number below 2**31, else 0."""
+    return int(x) if float(x).is_integer() and 0 < x < 2 ** 31 else 0
 
 
 def _list_attacks(indptr, front, eoff, coff, nfront, pick, attacks, valid_nbrs, max_attacks,
