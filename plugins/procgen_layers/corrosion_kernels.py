@@ -33,6 +33,7 @@ serially.  So the result does not depend on the thread count.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from numba import njit, prange
@@ -75,6 +76,21 @@ class Work:
         self.chosen_row = np.empty(m, np.int64)              # its front row
 
 
+PASS_TIMES: dict[str, float] | None = None
+"""Set to a dict to add up each pass's time under its name (seconds by ``PASS_CLOCK``): the
+per-pass profile that benchmarks/surface.py prints with ``--paths --only corrode``."""
+PASS_CLOCK = time.perf_counter
+
+
+def _pass(name: str, fn, *args, **kw):
+    if PASS_TIMES is None:
+        return fn(*args, **kw)
+    t0 = PASS_CLOCK()
+    got = fn(*args, **kw)
+    PASS_TIMES[name] = PASS_TIMES.get(name, 0.0) + PASS_CLOCK() - t0
+    return got
+
+
 def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Generator, *,
                    weights: np.ndarray, edge_logw: np.ndarray | None = None,
                    blocked: np.ndarray | None = None) -> StepStats:
@@ -89,47 +105,58 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
         st.attacks = np.zeros(n, np.int64)          # new arrays: zero everywhere, no last front
         st.valid_neighbours = np.zeros(n, np.int64)
     else:                                           # only the last front's cells are non-zero
-        _clear(work.front, work.nfront, st.attacks, st.valid_neighbours)
+        _pass("clear", _clear, work.front, work.nfront, st.attacks, st.valid_neighbours)
     work.cleared = (st.attacks, st.valid_neighbours)
     blk = np.zeros(0, np.bool_) if blocked is None else np.asarray(blocked, np.bool_)
-    nfront = work.nfront = _scan(work.indptr, work.indices, st.status, st.consumable, blk, work.corr,
-                                 work.front, work.counts, work.eoff)
+    nfront = work.nfront = _pass("scan", _scan, work.indptr, work.indices, st.status, st.consumable, blk,
+                                 work.corr, work.front, work.counts, work.eoff)
     ne = int(work.eoff[nfront])
-    seeds = np.zeros(0, np.int64)
-    room = prm.max_seeds - st.seeds_used
-    if room > 0 and prm.seed_rate > 0:
-        want = int(rng.binomial(n, prm.seed_rate)) if prm.seeding == "binomial" else int(np.floor(prm.seed_rate * n))
-        if min(want, room) > 0:
-            npool = int(_pool_size(st.status, st.consumable, blk, st.strong, work.counts[2]))
-            k = min(want, room, npool)
-            if k > 0:
-                idx = rng.choice(npool, k, replace=False)
-                seeds = _pool_members(st.status, st.consumable, blk, st.strong, work.counts[2],
-                                      np.asarray(idx, np.int64))
-                out.seed_cells = seeds
-                st.seeds_used += k
-                out.new_seeds = k
+    seeds = _pass("seeds", _seeds, work, st, prm, rng, blk, out)
     nch = 0
     if nfront:
         work.fit(ne)
-        rng.random(out=work.u[:ne])
+        _pass("draw_u", rng.random, out=work.u[:ne])
         logw = np.zeros(0) if edge_logw is None else np.asarray(edge_logw, dtype=float)
-        _choose(work.indptr, work.indices, work.direction, np.asarray(weights, float), logw, st.age,
-                float(prm.age_step), _integral(prm.age_step), int(prm.max_attacks), st.status, st.consumable, blk, work.front,
-                work.eoff, nfront, work.u, work.key, work.pick, work.helpers, st.attacks, st.valid_neighbours)
-        nch, mx, viol = _list_attacks(work.indptr, work.front, work.eoff, work.coff, nfront, work.pick,
-                                      st.attacks, st.valid_neighbours, int(prm.max_attacks), work.chosen,
-                                      work.chosen_row)
+        _pass("choose", _choose, work.indptr, work.indices, work.direction, np.asarray(weights, float), logw,
+              st.age, float(prm.age_step), _integral(prm.age_step), int(prm.max_attacks), st.status,
+              st.consumable, blk, work.front, work.eoff, nfront, work.u, work.key, work.pick, work.helpers,
+              st.attacks, st.valid_neighbours)
+        nch, mx, viol = _pass("list_attacks", _list_attacks, work.indptr, work.front, work.eoff, work.coff,
+                              nfront, work.pick, st.attacks, st.valid_neighbours, int(prm.max_attacks),
+                              work.chosen, work.chosen_row)
         out.attacks, out.max_attacks_per_cell, out.max_allowed_violation = nch, mx, viol
-        rng.random(out=work.noise[:nch])
-        _judge(work.indptr, work.indices, st.status, work.front, work.chosen, work.chosen_row, nch,
-               work.helpers, work.noise, st.age, st.strong, work.hit, float(prm.a0), float(prm.a1),
-               float(prm.a2), float(prm.noise), float(prm.b0), float(prm.b1), float(prm.strong_bonus))
-    newly = _settle(work.indices, seeds, work.chosen, work.hit, nch, st.status)
-    holes = _thin(work.corr, work.counts, n, st.status, st.consumable, st.product, st.age,
+        _pass("draw_noise", rng.random, out=work.noise[:nch])
+        _pass("judge", _judge, work.indptr, work.indices, st.status, work.front, work.chosen, work.chosen_row,
+              nch, work.helpers, work.noise, st.age, st.strong, work.hit, float(prm.a0), float(prm.a1),
+              float(prm.a2), float(prm.noise), float(prm.b0), float(prm.b1), float(prm.strong_bonus))
+    newly = _pass("settle", _settle, work.indices, seeds, work.chosen, work.hit, nch, st.status)
+    holes = _pass("thin", _thin, work.corr, work.counts, n, st.status, st.consumable, st.product, st.age,
                   float(prm.k1), float(prm.k2), float(prm.k3))
     out.new_holes, out.newly_corroded, out.changed = int(holes), int(newly), int(holes + newly)
     return out
+
+
+def _seeds(work: Work, st: CorrosionState, prm, rng: np.random.Generator, blk: np.ndarray,
+           out: StepStats) -> np.ndarray:
+    """Step 1: the new seeds (the numpy path's draws); the weak open pool is counted and
+    searched only when the binomial asks for seeds."""
+    room = prm.max_seeds - st.seeds_used
+    if room <= 0 or prm.seed_rate <= 0:
+        return np.zeros(0, np.int64)
+    n = st.status.size
+    want = int(rng.binomial(n, prm.seed_rate)) if prm.seeding == "binomial" else int(np.floor(prm.seed_rate * n))
+    if min(want, room) <= 0:
+        return np.zeros(0, np.int64)
+    npool = int(_pool_size(st.status, st.consumable, blk, st.strong, work.counts[2]))
+    k = min(want, room, npool)
+    if k <= 0:
+        return np.zeros(0, np.int64)
+    idx = rng.choice(npool, k, replace=False)
+    out.seed_cells = _pool_members(st.status, st.consumable, blk, st.strong, work.counts[2],
+                                   np.asarray(idx, np.int64))
+    st.seeds_used += k
+    out.new_seeds = k
+    return out.seed_cells
 
 
 @njit(cache=True, nogil=True, inline="always")
