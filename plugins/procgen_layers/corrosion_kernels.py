@@ -186,15 +186,26 @@ def _chunk(b, n, nb):
     return b * n // nb, (b + 1) * n // nb
 
 
+_ONES = np.uint64(0x0101010101010101)      # a word of status bytes has a CORRODED (1) byte iff
+_HIGHS = np.uint64(0x8080808080808080)     # v = word ^ _ONES has a zero byte: (v - _ONES) & ~v & _HIGHS
+
+
 @njit(cache=True, nogil=True, parallel=True)
-def _scan_chunks(indptr, indices, status, consumable, blocked, corr, front, counts):
+def _scan_chunks(indptr, indices, status, words, consumable, blocked, corr, front, counts):
     n = status.size
     nb = counts.shape[1]
+    wend = words.size * 8
     for b in prange(nb):
         c0, c1 = _chunk(b, n, nb)
         k = c0
         r = c0
-        for c in range(c0, c1):
+        c = c0
+        while c < c1:
+            if (c & 7) == 0 and c + 8 <= c1 and c + 8 <= wend:   # 8 cells at a time: skip the
+                v = words[c >> 3] ^ _ONES                       # words without a corroded cell
+                if ((v - _ONES) & ~v & _HIGHS) == 0:
+                    c += 8
+                    continue
             if status[c] == CORRODED:
                 corr[k] = c
                 k += 1
@@ -203,6 +214,7 @@ def _scan_chunks(indptr, indices, status, consumable, blocked, corr, front, coun
                         front[r] = c
                         r += 1
                         break
+            c += 1
         counts[0, b] = k - c0
         counts[1, b] = r - c0
 
@@ -228,7 +240,9 @@ def _join_front(indptr, front, counts, eoff):
 def _scan(indptr, indices, status, consumable, blocked, corr, front, counts, eoff) -> int:
     """The one pass over every cell: the corroded cells (per chunk, for the thinning) and the
     front (corroded cells touching an open cell, joined in cell order) with its entry offsets."""
-    _scan_chunks(indptr, indices, status, consumable, blocked, corr, front, counts)
+    one_byte = status.dtype.itemsize == 1 and status.flags.c_contiguous
+    words = status[:status.size - status.size % 8].view(np.uint64) if one_byte else np.zeros(0, np.uint64)
+    _scan_chunks(indptr, indices, status, words, consumable, blocked, corr, front, counts)
     return int(_join_front(indptr, front, counts, eoff))
 
 
