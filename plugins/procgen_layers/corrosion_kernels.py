@@ -252,10 +252,13 @@ def _pool_size(status, consumable, blocked, strong, per):
     n = status.size
     for b in prange(per.size):
         c0, c1 = _chunk(b, n, per.size)
-        m = 0
+        m = 0                                   # (branch-free: a strong cell is a coin flip)
         if blocked.size:
             for c in range(c0, c1):
                 m += (status[c] == NORMAL) & (not strong[c]) & (_has_metal(consumable, c) > 0) & (not blocked[c])
+        elif consumable.shape[1] == 1:          # one consumed layer: its thickness is the sum
+            for c in range(c0, c1):
+                m += (status[c] == NORMAL) & (not strong[c]) & (consumable[c, 0] > 0)
         else:
             for c in range(c0, c1):
                 m += (status[c] == NORMAL) & (not strong[c]) & (_has_metal(consumable, c) > 0)
