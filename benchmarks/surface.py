@@ -32,7 +32,10 @@ is the frontier's, not the domain's; the per-graph links of the compiled step, `
 are built before the clock, as the transposed graph both paths use is).  Single-threaded rows (numba at one thread) give CPU
 time; the ``2 threads`` rows run the same workload with numba's threads on both cores and give
 wall time on every path (numpy included), which on a loaded machine is the noisier figure.
-Fastest of two alternating rounds; both paths' results are hashed.
+Fastest of two alternating rounds; both paths' results are hashed.  The compiled patina child
+also runs the workload once more with each pass of the step timed apart and prints them
+(``passes``: ns per cell-step and share, "glue" = the step's Python outside the passes) with the
+front per step, the part of the grid the per-entry passes work on.
 
 The life rows' limit is the same trivial gather on the compact layout the compiled life step
 reads (int16 neighbour deltas + int32 escape rows, unsigned indices: the same bytes and

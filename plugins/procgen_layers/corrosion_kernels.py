@@ -11,17 +11,19 @@ targets, one per attack for the noise), the Efraimidis-Spirakis keys log(u)/w an
 (largest first, ties in entry order) are the numpy path's, and every float expression keeps its
 order (tests/test_corrode_kernels.py compares whole runs).
 
-Where the time goes (benchmarks/corrode_passes.py): the front is a few per cent of the cells, so
-a step is one pass over the cells plus work on the front.  The one whole-grid pass reads a byte
-per cell (the status) and, for the corroded cells only, whether a neighbour is open (normal,
-metal left, not blocked; computed where read, so no open/status copy of the grid is written);
-it lists the corroded cells and the front per chunk of cells.  The state stays as it was at the
-start of the step until the attacks are judged (thinning, step 4, runs last, over the listed
-corroded cells), so the kernels read ``status`` and ``age`` directly.  The weak open pool is
-counted and searched only in a step that draws seeds.  Buffers live on the graph: the per-cell
-ones are made once, the per-entry ones grow with the largest front seen (a step allocates
-nothing proportional to the domain; ``attacks``/``valid_neighbours`` of the state are zeroed in
-place at the last front's cells, the only non-zero ones).
+Where the time goes (``PASS_TIMES``; ``benchmarks/surface.py --paths --only corrode`` prints
+it): the front is a few per cent of the cells, so a step is one pass over the cells plus work on
+the front.  The one whole-grid pass reads the status (a 64-bit word of 8 cells at a time,
+skipping words without a corroded cell) and, for the corroded cells only, whether a neighbour is
+open (normal, metal left, not blocked; computed where read, so no open/status copy of the grid
+is written); it lists the corroded cells and the front per chunk of cells.  The state stays as
+it was at the start of the step until the attacks are judged (thinning, step 4, runs last, over
+the listed corroded cells), so the kernels read ``status`` and ``age`` directly.  The weak open
+pool is counted (per chunk) only in a step that draws seeds, and a seed is looked for in its
+chunk.  Buffers live on the graph: the per-cell ones are made once, the per-entry ones grow with
+the largest front seen (a step allocates nothing proportional to the domain;
+``attacks``/``valid_neighbours`` of the state are zeroed in place at the last front's cells, the
+only non-zero ones).
 
 Parallel and deterministic: every pass runs over numba's threads with each chunk, front row or
 attack writing only its own slots, and every list keeps the numpy path's order: the lists are
