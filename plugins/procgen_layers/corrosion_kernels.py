@@ -29,8 +29,8 @@ Parallel and deterministic: every pass runs over numba's threads with each chunk
 attack writing only its own slots, and every list keeps the numpy path's order: the lists are
 made per chunk of cells into the chunk's own slice and the front is joined in chunk order; the
 target choice runs per front row, and the attack list is laid out by a prefix sum of the
-per-row counts (front row, then entry order); attacks are judged in parallel and marked
-serially.  So the result does not depend on the thread count.
+per-row counts (front row, then entry order); attacks are judged in parallel (per front row,
+into its slice of the list) and marked serially.  So the result does not depend on the thread count.
 """
 from __future__ import annotations
 
@@ -74,8 +74,7 @@ class Work:
         m = max(2 * entries, 1024)
         self.u, self.key, self.noise = np.empty(m), np.empty(m), np.empty(m)
         self.pick, self.hit = np.empty(m, np.uint8), np.empty(m, np.uint8)
-        self.chosen = np.empty(m, self.indices.dtype)        # chosen entry
-        self.chosen_row = np.empty(m, np.int64)              # its front row
+        self.chosen = np.empty(m, self.indices.dtype)        # chosen entry of each attack
 
 
 PASS_TIMES: dict[str, float] | None = None
@@ -123,14 +122,14 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
               st.age, float(prm.age_step), _integral(prm.age_step), int(prm.max_attacks), st.status,
               st.consumable, blk, work.front, work.eoff, nfront, work.u, work.key, work.pick, work.helpers,
               st.attacks, st.valid_neighbours)
-        nch, mx, viol = _pass("list_attacks", _list_attacks, work.indptr, work.front, work.eoff, work.coff,
-                              nfront, work.pick, st.attacks, st.valid_neighbours, int(prm.max_attacks),
-                              work.chosen, work.chosen_row)
-        out.attacks, out.max_attacks_per_cell, out.max_allowed_violation = nch, mx, viol
+        nch, mx, viol = _pass("offsets", _attack_offsets, work.front, nfront, st.attacks,
+                              st.valid_neighbours, int(prm.max_attacks), work.coff)
+        out.attacks, out.max_attacks_per_cell, out.max_allowed_violation = int(nch), int(mx), int(viol)
         _pass("draw_noise", rng.random, out=work.noise[:nch])
-        _pass("judge", _judge, work.indptr, work.indices, st.status, work.front, work.chosen, work.chosen_row,
-              nch, work.helpers, work.noise, st.age, st.strong, work.hit, float(prm.a0), float(prm.a1),
-              float(prm.a2), float(prm.noise), float(prm.b0), float(prm.b1), float(prm.strong_bonus))
+        _pass("judge", _judge, work.indptr, work.indices, st.status, work.front, work.eoff, work.coff, nfront,
+              work.pick, work.helpers, work.noise, st.age, st.strong, work.chosen, work.hit, float(prm.a0),
+              float(prm.a1), float(prm.a2), float(prm.noise), float(prm.b0), float(prm.b1),
+              float(prm.strong_bonus))
     newly = _pass("settle", _settle, work.indices, seeds, work.chosen, work.hit, nch, st.status)
     holes = _pass("thin", _thin, work.corr, work.counts, n, st.status, st.consumable, st.product, st.age,
                   float(prm.k1), float(prm.k2), float(prm.k3))
@@ -353,18 +352,11 @@ def _integral(x: float) -> int:
     return int(x) if float(x).is_integer() and 0 < x < 2 ** 31 else 0
 
 
-def _list_attacks(indptr, front, eoff, coff, nfront, pick, attacks, valid_nbrs, max_attacks,
-                  chosen, chosen_row):
-    """The attack list in front-row then entry order (the numpy path's): row offsets from a
-    prefix sum of the per-row counts, then each row fills its slice in parallel.  Returns
-    (attacks, the most of one cell, cells above the allowed count)."""
-    mx, viol = _attack_offsets(front, nfront, attacks, valid_nbrs, max_attacks, coff)
-    _fill_attacks(indptr, front, eoff, coff, nfront, pick, chosen, chosen_row)
-    return int(coff[nfront]), int(mx), int(viol)
-
-
 @njit(cache=True, nogil=True)
 def _attack_offsets(front, nfront, attacks, valid_nbrs, max_attacks, coff):
+    """The first attack of each front row (a prefix sum of the per-row counts: the attack list
+    in front-row then entry order, the numpy path's); returns (attacks, the most of one cell,
+    cells above the allowed count)."""
     coff[0] = 0
     mx = 0
     viol = 0
@@ -374,38 +366,33 @@ def _attack_offsets(front, nfront, attacks, valid_nbrs, max_attacks, coff):
         mx = max(mx, per)
         if per > min(valid_nbrs[front[r]], max_attacks):
             viol += 1
-    return mx, viol
+    return coff[nfront], mx, viol
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _fill_attacks(indptr, front, eoff, coff, nfront, pick, chosen, chosen_row):
+def _judge(indptr, indices, status, front, eoff, coff, nfront, pick, helpers, noise, age, strong,
+           chosen, hit, a0, a1, a2, noise_amp, b0, b1, strong_bonus):
+    """Each front row's attacks (its picked entries, in entry order from coff[r]): chosen[i] =
+    the entry, hit[i] = attack i beats its target's defence (f2); in parallel over the rows
+    (the state is still the one at the start of the step)."""
     for r in prange(nfront):
         c = front[r]
         j0 = indptr[c]
         e = eoff[r] - j0
         i = coff[r]
+        base = a0 + a1 * age[c] + a2 * helpers[r]
         for j in range(j0, indptr[c + 1]):
-            if pick[e + j]:
-                chosen[i] = j
-                chosen_row[i] = r
-                i += 1
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def _judge(indptr, indices, status, front, chosen, chosen_row, nch, helpers, noise, age, strong,
-           hit, a0, a1, a2, noise_amp, b0, b1, strong_bonus):
-    """hit[i]: attack i beats its target's defence (f2), in parallel over the attacks (the
-    state is still the one at the start of the step)."""
-    for i in prange(nch):
-        r = chosen_row[i]
-        t = indices[chosen[i]]
-        attack = a0 + a1 * age[front[r]] + a2 * helpers[r] + noise_amp * noise[i]
-        sh = 0                                  # strong normal neighbours (branch-free:
-        for q in range(indptr[t], indptr[t + 1]):   # strong cells are a random share)
-            x = indices[q]
-            sh += strong[x] & (status[x] == NORMAL)
-        defence = b0 + b1 * float(sh) + strong_bonus * (1.0 if strong[t] else 0.0)
-        hit[i] = attack > defence
+            if not pick[e + j]:
+                continue
+            t = indices[j]
+            sh = 0                                  # strong normal neighbours (branch-free:
+            for q in range(indptr[t], indptr[t + 1]):   # strong cells are a random share)
+                x = indices[q]
+                sh += strong[x] & (status[x] == NORMAL)
+            defence = b0 + b1 * float(sh) + strong_bonus * (1.0 if strong[t] else 0.0)
+            chosen[i] = j
+            hit[i] = base + noise_amp * noise[i] > defence
+            i += 1
 
 
 @njit(cache=True, nogil=True)
