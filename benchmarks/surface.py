@@ -32,7 +32,10 @@ is the frontier's, not the domain's; the per-graph links of the compiled step, `
 are built before the clock, as the transposed graph both paths use is).  Single-threaded rows (numba at one thread) give CPU
 time; the ``2 threads`` rows run the same workload with numba's threads on both cores and give
 wall time on every path (numpy included), which on a loaded machine is the noisier figure.
-Fastest of two alternating rounds; both paths' results are hashed.
+Fastest of two alternating rounds; both paths' results are hashed.  The compiled patina child
+also runs the workload once more with each pass of the step timed apart and prints them
+(``passes``: ns per cell-step and share, "glue" = the step's Python outside the passes) with the
+front per step, the part of the grid the per-entry passes work on.
 
 The life rows' limit is the same trivial gather on the compact layout the compiled life step
 reads (int16 neighbour deltas + int32 escape rows, unsigned indices: the same bytes and
@@ -370,6 +373,31 @@ def _bytes_per_cell(obj, n: int) -> float:
     return round(sum(seen.values()) / n, 1)
 
 
+def _corrode_passes(g, patina, clock, steps: int) -> dict:
+    """The compiled patina run again with each pass of the step timed apart (not the timed
+    run: the pass clocks cost a little): per pass ns per cell-step and its share, the step
+    outside the passes ("glue": Python, argument checks), and the front per step, of which
+    the per-entry passes do the work (a per-cell-step figure hides that it is a small part
+    of the grid)."""
+    from procgen.accel import kernels
+    kern = kernels("procgen_layers.corrosion_kernels", True)
+    fronts: list[int] = []
+    kern.PASS_TIMES, kern.PASS_CLOCK = {}, clock
+    try:
+        t0 = clock()
+        patina(lambda: fronts.append(g.__dict__["_corrode_kernel_work"].nfront))
+        total = clock() - t0
+        times = dict(kern.PASS_TIMES)
+    finally:
+        kern.PASS_TIMES, kern.PASS_CLOCK = None, time.perf_counter
+    times["glue"] = total - sum(times.values())
+    per = steps * g.n_cells
+    out = {k: f"{v / per * 1e9:.2f}ns {v / total:.0%}" for k, v in sorted(times.items(), key=lambda kv: -kv[1])}
+    f = np.array(fronts)
+    out["front_cells_per_step"] = f"mean {f.mean():,.0f} ({f.mean() / g.n_cells:.1%} of the cells), max {f.max():,}"
+    return out
+
+
 def path_child(args, scale: float) -> None:
     """One path of ``--paths`` in this process: time per unit of work, as JSON."""
     part, threads = args.part.removesuffix("-2t"), 2 if args.part.endswith("-2t") else 1
@@ -459,20 +487,28 @@ def path_child(args, scale: float) -> None:
         fig["warmup_s"] = round(time.perf_counter() - t0, 2)
     if part == "corrode":
         n = g.n_cells
-        rng = np.random.default_rng(2)
-        st = cz.CorrosionState(status=np.zeros(n, np.int8), consumable=np.ones((n, 1)),
-                               product=np.zeros(n), age=np.zeros(n, np.int32),
-                               strong=cz.strong_mask(n, 0.3, rng))
-        st.status[rng.integers(n)] = cz.CORRODED
         prm = Corrode()
         weights = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
+
+        def patina(each=None) -> cz.CorrosionState:
+            rng = np.random.default_rng(2)
+            st = cz.CorrosionState(status=np.zeros(n, np.int8), consumable=np.ones((n, 1)),
+                                   product=np.zeros(n), age=np.zeros(n, np.int32),
+                                   strong=cz.strong_mask(n, 0.3, rng))
+            st.status[rng.integers(n)] = cz.CORRODED
+            for k in range(args.path_steps):
+                cz.corrosion_step(g, st, prm, np.random.default_rng(k), weights=weights, accelerate=accelerate)
+                if each:
+                    each()
+            return st
+
         t0 = clock()
-        for k in range(args.path_steps):
-            cz.corrosion_step(g, st, prm, np.random.default_rng(k), weights=weights, accelerate=accelerate)
+        st = patina()
         t = clock() - t0
         digest = hashlib.sha256(st.status.tobytes() + st.consumable.tobytes() + st.product.tobytes())
         if accelerate:
             fig["bytes_per_cell"] = _bytes_per_cell(g.__dict__["_corrode_kernel_work"], n)
+            fig["passes"] = _corrode_passes(g, patina, clock, args.path_steps)
         fig.update(hash=digest.hexdigest()[:16], coverage=round(float(np.mean(st.status != cz.NORMAL)), 3))
         _paths.report(seconds=t / (args.path_steps * n), **fig)
         return

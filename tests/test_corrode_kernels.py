@@ -17,14 +17,15 @@ STATS = ("changed", "new_seeds", "newly_corroded", "new_holes", "attacks", "max_
          "max_allowed_violation")
 
 
-@pytest.mark.parametrize("variant", ["plain", "tilt-blocked", "floor-seeding"])
+@pytest.mark.parametrize("variant", ["plain", "tilt-blocked", "floor-seeding", "fractional-age-step"])
 def test_compiled_corrosion_equals_numpy_corrosion(variant):
-    g = grid_graph(45, 60)
+    g = grid_graph(45, 60) if variant != "plain" else grid_graph(90, 100)   # 2 chunks of cells
     n = g.n_cells
     rng = np.random.default_rng(3)
-    st = fresh_state(n, rng, metal=0.5, layers=2)
+    st = fresh_state(n, rng, metal=0.5, layers=1 if variant == "floor-seeding" else 2)
     prm = Corrode(k1=0.03, k2=0.05, k3=0.3, seed_rate=1e-3, max_seeds=30, b0=1.0, noise=0.8,
-                  seeding="floor" if variant == "floor-seeding" else "binomial")
+                  seeding="floor" if variant == "floor-seeding" else "binomial",
+                  age_step=2.5 if variant == "fractional-age-step" else 12.0)   # f1 = 1 + age // 2.5
     w = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
     kw = {}
     if variant == "tilt-blocked":
@@ -46,9 +47,9 @@ def test_compiled_corrosion_equals_numpy_corrosion(variant):
 
 def test_compiled_corrosion_same_on_one_and_two_threads():
     """The parallel passes (front lists, target choice, attacks) give the same run on one
-    thread and on two (every list in the numpy path's order)."""
+    thread and on two (every list in the numpy path's order; 2 chunks of cells)."""
     import numba
-    g = grid_graph(45, 60)
+    g = grid_graph(90, 100)
     prm = Corrode(k1=0.03, k2=0.05, k3=0.3, seed_rate=1e-3, max_seeds=30, b0=1.0, noise=0.8)
     w = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
     runs = []
