@@ -321,8 +321,14 @@ class Corrode(RuleBase):
         out = cz.corrosion_step(self._graph, st, self, state.rng(), weights=self._weights,
                                 edge_logw=self._edge_logw, blocked=self._blocked)
         c1, p1 = st.consumable[idx], st.product[idx]
-        self._source[idx] += (c1.sum(axis=1) - c0 + p1 - p0) * self._area[idx]
-        self._t[np.ix_(idx, self._cons)] = c1
+        delta = c1.sum(axis=1)                    # (c1 - c0 + p1 - p0) * area, in place
+        delta -= c0
+        delta += p1
+        delta -= p0
+        delta *= self._area[idx]
+        self._source[idx] += delta
+        for j, layer in enumerate(self._cons):    # a few layers, not cells
+            self._t[idx, layer] = c1[:, j]
         self._t[idx, self._prod] = p1
         holes = idx[st.status[idx] == cz.HOLE]
         self._alive[holes] = False
