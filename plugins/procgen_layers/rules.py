@@ -245,6 +245,8 @@ class Corrode(RuleBase):
             self._st.seeds_used += k
         self._seeded, self._when = seeded, when
         self._n0 = int(np.count_nonzero(status == cz.NORMAL)) + max(k, 0)
+        self._touched = int(np.count_nonzero(status != cz.NORMAL))     # kept by each step from here
+        self._corroded = np.flatnonzero(status == cz.CORRODED)          # the cells the next step thins
         self._stats = {"new_seeds": max(k, 0), "max_attacks_per_cell": 0, "attack_limit_violations": 0}
         self._log = CoverageLog()
         self._log.add(self._changed_fraction(), max(k, 0) / max(n, 1))
@@ -283,50 +285,68 @@ class Corrode(RuleBase):
         return self.downhill * (h[gr.rows] - h[gr.indices]) / run
 
     def _changed_fraction(self) -> float:
-        n = len(self._st.status)
-        return float(np.count_nonzero(self._st.status != cz.NORMAL) - (n - self._n0)) / max(self._n0, 1)
+        return float(self._touched - (len(self._st.status) - self._n0)) / max(self._n0, 1)
 
     def _write(self, dom: Any) -> None:
-        """Publish the kernel state as fields (state/age/strong share the kernel's arrays)."""
+        """Publish the whole kernel state as fields (state/age/strong share the kernel's arrays);
+        from then on :meth:`step` updates the published arrays in place, at the changed cells."""
         st = self._st
         self._t[:, self._cons] = st.consumable
         self._t[:, self._prod] = st.product
-        if "corrosion__state" not in dom or cell_values(dom, "corrosion__state") is not st.status:
-            for name, arr, units, doc in (
-                    ("corrosion__state", st.status, "", "0 sound, 1 corroded, 2 hole"),
-                    ("corrosion__age", st.age, "steps", "steps since corroded"),
-                    ("corrosion__strong", st.strong, "", "strong (resisting) cell"),
-                    ("corrosion__seeded", self._seeded, "", "cell was a seed"),
-                    ("corrosion__time", self._when, "steps", "iteration at which the cell corroded (-1 never)")):
-                put_cell_values(dom, name, arr, units=units, doc=doc)
-        self.publish_maps(dom)
-
-    def publish_maps(self, dom: Any) -> None:
-        st = self._st
+        for name, arr, units, doc in (
+                ("corrosion__state", st.status, "", "0 sound, 1 corroded, 2 hole"),
+                ("corrosion__age", st.age, "steps", "steps since corroded"),
+                ("corrosion__strong", st.strong, "", "strong (resisting) cell"),
+                ("corrosion__seeded", self._seeded, "", "cell was a seed"),
+                ("corrosion__time", self._when, "steps", "iteration at which the cell corroded (-1 never)")):
+            put_cell_values(dom, name, arr, units=units, doc=doc)
         put_cell_values(dom, "cell__alive", st.status != cz.HOLE, doc="false on holes")
         put_cell_values(dom, "corrosion__map", np.where(st.status > 0, 1.0 + st.status, 1.0 - st.strong),
                         units="1", doc="0 strong, 1 weak, 2 corroded, 3 hole (plate 2.2 maps)")
+        self._alive, self._map = cell_values(dom, "cell__alive"), cell_values(dom, "corrosion__map")
 
     def step(self, state: State) -> bool:
-        dom = state.get(self.cells, CELL_DOMAIN)
+        """One kernel step, then the published fields updated at the cells it changed only.
+
+        Only the cells corroded at the start of a step thin, oxidise, age or become holes (the
+        kernel's step 4), and a normal cell can only become corroded; so the thickness, the
+        source and the holes are read and written at the start's corroded cells, and the newly
+        corroded cells are the corroded ones the map still shows below 2.  One scan of the status
+        per step lists the corroded cells for the next step; nothing else is a whole-grid pass
+        (tests/test_corrode_rule_fields.py checks every field against a recomputation).
+        """
         st = self._st
-        before = st.status.copy()
-        c0, p0 = st.consumable.sum(axis=1), st.product.copy()
+        idx = self._corroded
+        c0, p0 = st.consumable[idx].sum(axis=1), st.product[idx]
         out = cz.corrosion_step(self._graph, st, self, state.rng(), weights=self._weights,
                                 edge_logw=self._edge_logw, blocked=self._blocked)
-        self._source += (st.consumable.sum(axis=1) - c0 + st.product - p0) * self._area
-        newly = (st.status == cz.CORRODED) & (before == cz.NORMAL)
+        c1, p1 = st.consumable[idx], st.product[idx]
+        delta = c1.sum(axis=1)                    # (c1 - c0 + p1 - p0) * area, in place
+        delta -= c0
+        delta += p1
+        delta -= p0
+        delta *= self._area[idx]
+        self._source[idx] += delta
+        for j, layer in enumerate(self._cons):    # a few layers, not cells
+            self._t[idx, layer] = c1[:, j]
+        self._t[idx, self._prod] = p1
+        holes = idx[st.status[idx] == cz.HOLE]
+        self._alive[holes] = False
+        self._map[holes] = 1.0 + cz.HOLE
+        corroded = self._corroded = np.flatnonzero(st.status == cz.CORRODED)
+        newly = corroded[self._map[corroded] < 1.0 + cz.CORRODED]
+        self._map[newly] = 1.0 + cz.CORRODED
         self._when[newly] = self._t0 + state.iteration
+        self._touched += len(newly)
         if out.new_seeds:
             self._seeded[out.seed_cells] = True
         s = self._stats
         s["new_seeds"] += out.new_seeds
         s["max_attacks_per_cell"] = max(s["max_attacks_per_cell"], out.max_attacks_per_cell)
         s["attack_limit_violations"] += out.max_allowed_violation
-        self._write(dom)
         self._log.add(self._changed_fraction(), out.changed / max(len(st.status), 1))
         state.add_domain(self.coverage, self._log.domain())
-        return bool(out.changed or np.any(st.status == cz.CORRODED))
+        return bool(out.changed or len(corroded))
 
     def finish(self, state: State) -> None:
         st = self._st

@@ -20,15 +20,21 @@ class CoverageLog:
     def __init__(self) -> None:
         self.cumulative: list[float] = [0.0]
         self.per_step: list[float] = [0.0]
+        self._rows = np.zeros((64, 3))        # (step, cumulative, per step): grown by doubling
 
     def add(self, cumulative: float, changed: float) -> None:
         self.cumulative.append(100.0 * cumulative)
         self.per_step.append(100.0 * changed)
+        k = len(self.cumulative)
+        if k > len(self._rows):
+            self._rows = np.concatenate([self._rows, np.zeros_like(self._rows)])
+        self._rows[k - 1] = (k - 1, self.cumulative[-1], self.per_step[-1])
 
     def domain(self) -> Polylines:
-        t = np.arange(len(self.cumulative), dtype=float)
-        return Polylines.from_list([np.column_stack([t, self.cumulative]),
-                                    np.column_stack([t, self.per_step])], closed=False)
+        """The two curves; built from the kept rows (a rule publishes it after every step)."""
+        k = len(self.cumulative)
+        rows = self._rows[:k]
+        return Polylines(np.concatenate([rows[:, :2], rows[:, ::2]]), [0, k, 2 * k], closed=False)
 
     def steps_to(self, percent: float) -> int | None:
         """First step at which the cumulative coverage reaches ``percent`` (None: never)."""
