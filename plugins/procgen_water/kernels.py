@@ -310,6 +310,7 @@ def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched,
 
 @njit(cache=True, nogil=True, inline="always")
 def _lay_key(key, x, sk, kb, dtouched, nd):
+    """x > 0 onto key's deposit sum (recording the key when it is new)."""
     if sk[key - kb, 3] == 0.0:
         dtouched[nd] = key
         nd += 1
