@@ -4,12 +4,13 @@ Why: the numpy step spends ~1.7 us per drop-step in temporaries and gathers, and
 loop that visits the drops in a random order reads the grid at random (a few cache misses per
 drop, ~250 ns on this machine).  Both paths keep the drops in cell order (the order every step
 returns, :meth:`particles.Drops.in_cell_order`), so here each step is one compiled call that
-walks the grid and the drops front to back: the drops are moved from the caller's arrays (in
-their order: the last step's cell order, plus any drops appended since) into a packed buffer
-(one 64-byte float row and one 32-byte int row per drop), counting-sorted by their new cell
-only when some drop left the grid or now sits before its predecessor's cell, interact there,
-and the survivors are written back into the caller's arrays front to back.  Imported only
-through :func:`procgen.accel.kernels` (needs numba).
+walks the grid and the drops front to back: the drops are moved (read from the caller's
+arrays in their order: the last step's cell order, plus any drops appended since), placed in
+their new cell order into a packed buffer (one 64-byte float row and one 32-byte int row per
+drop; a counting sort, skipped when no drop left the grid or now sits before its
+predecessor's cell; a drop at rest is packed there straight from the caller's arrays),
+interact there, and the survivors are written back into the caller's arrays front to back.
+Imported only through :func:`procgen.accel.kernels` (needs numba).
 
 Same numbers, bit for bit: the phases of ``particles.step`` run one after the other over all
 drops (move, drain, absorb + deposit, erode, deposit beyond capacity, lay and remove the empty
@@ -476,10 +477,14 @@ def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, release, evap
 
 @njit(cache=True, nogil=True, parallel=True)
 def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving, age,
-          F, I, n, gravity, friction, adh_k, max_speed, stable_speed, max_age):
-    """particles.move of drop i of the caller's arrays into packed row i (each drop on its own):
-    new position, velocity, speed, dh, the end cell (CELL; the start cell for drops that left
-    the grid, marked OUT); returns how many left."""
+          F, I, key, by_cell, n, gravity, friction, adh_k, max_speed, stable_speed, max_age):
+    """particles.move of drop i of the caller's arrays (each drop on its own): its sort key
+    ``key[i]`` (with ``by_cell`` the end cell, else 0; -1 for a drop that left the grid); a
+    moving drop's new state into packed row i (new position, velocity, speed, dh, the end cell
+    CELL, or the start cell for a drop that left, marked OUT).  A drop at rest keeps its state,
+    so its row is not written here: ``_place`` packs it straight into its sorted row (most
+    drops rest, and each row written and read again costs memory traffic).  Returns how many
+    left."""
     L = thickness.shape[1]
     vmax = max_speed * sp
     hi_x = nx * (1 - 1e-12)
@@ -496,6 +501,9 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
             prefetch(tf, ca * L)
         x = pos[i, 0]
         y = pos[i, 1]
+        if not moving[i]:
+            key[i] = _cell_of(x, y, nx, ny) if by_cell else 0
+            continue
         F[i, X] = x
         F[i, Y] = y
         F[i, VX] = vel[i, 0]
@@ -504,15 +512,9 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
         F[i, SED] = sediment[i]
         F[i, DH] = 0.0
         I[i, KIND] = kind[i]
-        I[i, MOV] = moving[i]
+        I[i, MOV] = 1
         I[i, AGE] = age[i]
         I[i, OUT] = 0
-        if not I[i, MOV]:
-            vx = F[i, VX]
-            vy = F[i, VY]
-            F[i, SPD] = math.hypot(vx, vy) if (vx != 0.0 or vy != 0.0) else 0.0
-            I[i, CELL] = _cell_of(x, y, nx, ny)
-            continue
         c, fu, fv = _corners(x, y, nx, ny)
         ci = c % nx
         cj = c // nx
@@ -574,21 +576,54 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
         if nxp < 0 or nxp >= nx or nyp < 0 or nyp >= ny:
             I[i, OUT] = 1
             I[i, CELL] = cc
+            key[i] = -1
             nout += 1
         else:
             I[i, CELL] = _cell_of(nxp, nyp, nx, ny)
+            key[i] = I[i, CELL] if by_cell else 0
     return nout
 
 
+@njit(cache=True, nogil=True, parallel=True)
+def _place(F, I, key, slot, placed, pos, vel, volume, sediment, kind, moving, age, G, J, n, nx,
+           ny):
+    """Drop i (not left the grid) into packed row ``slot[i]`` of G / J (row i if ``placed``:
+    the drops are in sort order already): a moving drop's row from F / I (``_move``'s), a drop
+    at rest packed from the caller's arrays, as particles.move leaves it (speed from its
+    velocity, dh 0)."""
+    for i in prange(n):
+        if key[i] < 0:
+            continue
+        r = np.int64(i) if placed else np.int64(slot[i])    # (prange's index may be unsigned)
+        if moving[i]:
+            _copy_row(F, I, i, G, J, r)
+            continue
+        vx = vel[i, 0]
+        vy = vel[i, 1]
+        G[r, X] = pos[i, 0]
+        G[r, Y] = pos[i, 1]
+        G[r, VX] = vx
+        G[r, VY] = vy
+        G[r, VOL] = volume[i]
+        G[r, SED] = sediment[i]
+        G[r, SPD] = math.hypot(vx, vy) if (vx != 0.0 or vy != 0.0) else 0.0
+        G[r, DH] = 0.0
+        J[r, KIND] = kind[i]
+        J[r, MOV] = 0
+        J[r, AGE] = age[i]
+        J[r, CELL] = _cell_of(pos[i, 0], pos[i, 1], nx, ny)
+        J[r, OUT] = 0
+
+
 @njit(cache=True, nogil=True)
-def _drain(F, I, n, L, sk, stamps, touched, drained, drained_sed):
+def _drain(F, I, skey, n, L, sk, stamps, touched, drained, drained_sed):
+    """Drained water and sediment of the drops that left (key -1; their rows are ``_move``'s),
+    summed per start cell in drop order, then added."""
     kb = 0
-    """Drained water and sediment of the drops that left, summed per start cell in drop order
-    (the packed drops are in (start cell, drop) order, or in drop order), then added."""
     stamps[0] += 1.0
     nt = 0
     for i in range(n):
-        if I[i, OUT]:
+        if skey[i] < 0:
             key = I[i, CELL] * L
             nt = _add(sk, kb, stamps[0], touched, nt, key, F[i, VOL])
             sk[key - kb, 1] += F[i, SED]
@@ -860,27 +895,22 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     # --- move (reading the caller's arrays, in their order: the cell order of the last step
     # plus any drops appended since) into packed rows, drain -----------------------------------
     nout = _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
-                 age, fa, ia, n0, gravity, friction, adh_k, max_speed, stable_speed, max_age)
+                 age, fa, ia, key, mode == 0, n0, gravity, friction, adh_k, max_speed,
+                 stable_speed, max_age)
     if nout:
-        _drain(fa, ia, n0, L, sk, stamps, touched, drained, drained_sed)
+        _drain(fa, ia, key, n0, L, sk, stamps, touched, drained, drained_sed)
     # --- the one-cell footprint interacts in end-cell order (ties in drop order: a stable
     # counting sort, skipped when the drops are in that order already); the others in drop order
     unsorted = 0
     if mode == 0 and not nout:
         for o in prange(1, n0):
-            if ia[o, CELL] < ia[o - 1, CELL]:
+            if key[o] < key[o - 1]:
                 unsorted += 1
     n = n0
     if nout or unsorted:
-        for o in prange(n0):
-            key[o] = -1 if ia[o, OUT] else (ia[o, CELL] if mode == 0 else 0)
         n = _counting_sort(key, n0, nb, counts, slot)
-        for o in prange(n0):
-            if key[o] >= 0:
-                _copy_row(fa, ia, o, fb, ib, slot[o])
-    else:
-        fb = fa
-        ib = ia
+    _place(fa, ia, key, slot, not (nout or unsorted), pos, vel, volume, sediment, kind, moving,
+           age, fb, ib, n0, nx, ny)
     if mode == 0:                                 # the occupied cells' first drops
         ncell = _cell_starts(ib, n, starts)
     else:                                         # one group: all drops
