@@ -72,7 +72,8 @@ KIND, MOV, AGE, CELL, TOP, OUT = range(6)
 class Work:
     """Scratch reused by every compiled step on one Surface: per key (cell, layer) one 32-byte
     row (sum, value, phase stamp, deposit sum), the start-of-step height, the counting-sort
-    slots, and per-drop / per-pair arrays grown geometrically with the drop count."""
+    slots, per thread one grid row's wet columns and occupied flags, and per-drop / per-pair
+    arrays grown geometrically with the drop count."""
 
     def __init__(self, ncell: int, n_layers: int, nx: int) -> None:
         self.sk = np.zeros((ncell * n_layers, 4))
@@ -119,7 +120,8 @@ class Work:
 
     @property
     def nbytes(self) -> int:
-        return self.grid_bytes + self.rows.nbytes + sum(a.nbytes for a in self._drop_arrays()) + sum(
+        return self.grid_bytes + self.rows.nbytes + sum(
+            a.nbytes for a in self._drop_arrays()) + sum(
             a.nbytes for a in (self.pairs, self.pkey, self.touched, self.dtouched))
 
 
