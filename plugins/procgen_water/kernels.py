@@ -31,7 +31,9 @@ compiles each combination on its own and the others' branches vanish from the in
 (a third faster); the interaction walks a list of the occupied cells' first drops and prefetches
 (procgen.prefetch) the grid lines of the cell ``_AHEAD`` cells on, the move those of the drop
 ``_AHEAD`` drops on: the occupied cells are sorted but sparse, a pattern the hardware does not
-guess.
+guess.  The one-cell footprint's interaction is one loop with its phases written out: numba
+often increfs and decrefs (atomic calls) the arrays an inlined helper with branches receives, at
+each call (check the assembly for NRT_incref), which cost that loop about 40% of its time.
 
 Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops' move
 and the write-back in chunks of drops, and with the one-cell footprint the interaction in chunks
@@ -617,8 +619,8 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
     for every drop (computed once); the erosion and deposit keys are (c0, layer): the sums are
     the L rows of ``rows`` (columns: erosion demand, then got / demand; removed / got; water
     released per removed volume; deposit).  Per drop scratch: dem (demand), lay (eroded layer).
-    The phases are written out in this one loop, not in helpers: numba increfs the arrays a
-    helper with branches receives, at each call (two atomic operations per array, per cell).
+    The phases are written out in this one loop, not in helpers: numba often increfs the arrays
+    a helper with branches receives, at each call (two atomic calls per array, per cell).
     The lines of the cell _AHEAD cells on are prefetched."""
     capacity_on = len(captag) > 0     # (a compile-time constant, as in _interact)
     L = thickness.shape[1]
