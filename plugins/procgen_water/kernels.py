@@ -274,15 +274,16 @@ def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
 @njit(cache=True, nogil=True, inline="always")
 def _add(sk, kb, stamp, touched, nt, key, x):
     """sk[key - kb, 0] += x for this phase (``stamp``): the first touch zeroes the row's columns
-    0-1 and records the key, so no pass is needed to clean up afterwards."""
-    if sk[key - kb, 2] != stamp:
-        sk[key - kb, 2] = stamp
-        sk[key - kb, 0] = 0.0
-        sk[key - kb, 1] = 0.0
-        touched[nt] = key
-        nt += 1
-    sk[key - kb, 0] += x
-    return nt
+    0-1 and records the key, so no pass is needed to clean up afterwards.  Without a branch
+    (selects; the key is written to touched[nt] either way, kept only when new): with one, numba
+    increfs sk and touched at each call."""
+    r = key - kb
+    new = sk[r, 2] != stamp
+    touched[nt] = key
+    sk[r, 0] = (0.0 if new else sk[r, 0]) + x
+    sk[r, 1] = 0.0 if new else sk[r, 1]
+    sk[r, 2] = stamp
+    return nt + new
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -290,14 +291,12 @@ def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
     """Add drop i's deposit of ``amount`` > 0 over its wider footprint to the deposit column
     sk[:, 3] (zero at rest; only positive terms, so a key is new while its sum is 0)."""
     k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, 0)
-    for q in range(k):
+    for q in range(k):                # (branch-free, as _add; adding x = 0 changes no sum)
         x = amount * fw[q]
-        if x != 0.0:
-            key = fc[q] * L + I[i, KIND]
-            if sk[key, 3] == 0.0:
-                dtouched[nd] = key
-                nd += 1
-            sk[key, 3] += x
+        key = fc[q] * L + I[i, KIND]
+        dtouched[nd] = key
+        nd += (x != 0.0) & (sk[key, 3] == 0.0)
+        sk[key, 3] += x
     return nd
 
 
@@ -596,6 +595,23 @@ def _drop_capacity(F, I, i, ms, cap_k, max_age, fade):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _erode_key(key, got, a, cap, tf, df, hf):
+    """particles.interact's removal of ``got`` > 0 volume from key (cell, layer) (tf, df, hf:
+    the flat thickness, deposit and held water; cap: the layer's capacity per thickness): the
+    layer and its deposit thin, the water held beyond the thinner layer's capacity is released
+    (taken from hf).  Returns (removed / got, released water, removed volume)."""
+    t_old = tf[key]
+    t_new = max(t_old - got / a, 0.0)
+    actual = (t_old - t_new) * a
+    tf[key] = t_new
+    df[key] = max(df[key] - (t_old - t_new), 0.0)
+    excess = max(hf[key] - cap * t_new * a, 0.0) if actual > 0 else 0.0
+    if excess > 0:
+        hf[key] -= excess
+    return actual / got, excess, actual
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _cell_laid(c0, L, a, tf, df, rows):
     """particles._deposit's ``thickness += bincount(...) / a`` at cell c0: the layers' deposit
     sums rows[:, 3] (only positive terms: a layer was laid on iff its sum is not 0), reset."""
@@ -733,15 +749,8 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
                     share = got / tot
                     if got > 0:
                         hit = True
-                        t_old = tf[key]
-                        t_new = max(t_old - got / a, 0.0)
-                        actual = (t_old - t_new) * a
-                        tf[key] = t_new
-                        df[key] = max(df[key] - (t_old - t_new), 0.0)
-                        corr = actual / got
-                        excess = max(hf[key] - capacity[l] * t_new * a, 0.0) if actual > 0 else 0.0
+                        corr, excess, actual = _erode_key(key, got, a, capacity[l], tf, df, hf)
                         if excess > 0:
-                            hf[key] -= excess
                             rel = excess / actual
                 rows[l, 0] = share
                 rows[l, 1] = corr
@@ -925,17 +934,9 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                 sk[key, 0] = got / tot if tot > 0 else 0.0
                 corr = 0.0
                 if got > 0:
-                    t_old = tf[key]
-                    t_new = max(t_old - got / a, 0.0)
-                    actual = (t_old - t_new) * a
-                    tf[key] = t_new
-                    df[key] = max(df[key] - (t_old - t_new), 0.0)
-                    corr = actual / got
-                    capn = capacity[key % L] * tf[key] * a
-                    excess = max(hf[key] - capn, 0.0) if actual > 0 else 0.0
+                    corr, excess, actual = _erode_key(key, got, a, capacity[key % L], tf, df, hf)
                     if excess > 0:
-                        hf[key] -= excess
-                        sk[key, 3] = excess / (actual if actual > 0 else 1.0)
+                        sk[key, 3] = excess / actual
                         dtouched[nrel] = key
                         nrel += 1
                 sk[key, 1] = corr
