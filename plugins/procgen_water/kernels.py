@@ -624,6 +624,8 @@ def _cell_laid(c0, L, a, tf, df, rows):
             rows[l, 3] = 0.0
 
 
+# (error_model "numpy": every division below is guarded, so no zero-division checks and their
+# raise paths are compiled in)
 @njit(cache=True, nogil=True, error_model="numpy")
 def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
                     erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
