@@ -32,7 +32,9 @@ compiles each combination on its own and the others' branches vanish from the in
 (a third faster); the interaction walks a list of the occupied cells' first drops and prefetches
 (procgen.prefetch) the grid lines of the cell ``_AHEAD`` cells on, the move those of the drop
 ``_AHEAD`` drops on: the occupied cells are sorted but sparse, a pattern the hardware does not
-guess.
+guess.  The one-cell footprint's interaction is one loop with its phases written out: numba
+often increfs and decrefs (atomic calls) the arrays an inlined helper with branches receives, at
+each call (check the assembly for NRT_incref), which cost that loop about 40% of its time.
 
 Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops' move
 and the write-back in chunks of drops, and with the one-cell footprint the interaction in chunks
@@ -275,64 +277,44 @@ def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _drop_footprint(F, I, i, nx, ny, mode, oy, ox, ow, cells, w, base):
-    """_footprint of packed drop i on the grid: the one-cell footprint is its cell, already in
-    its CELL slot (the move computed it from the same position)."""
-    if mode == 0:
-        cells[base] = I[i, CELL]
-        w[base] = 1.0
-        return 1
-    return _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, cells, w, base)
-
-
-@njit(cache=True, nogil=True, inline="always")
 def _add(sk, kb, stamp, touched, nt, key, x):
     """sk[key - kb, 0] += x for this phase (``stamp``): the first touch zeroes the row's columns
-    0-1 and records the key, so no pass is needed to clean up afterwards."""
-    if sk[key - kb, 2] != stamp:
-        sk[key - kb, 2] = stamp
-        sk[key - kb, 0] = 0.0
-        sk[key - kb, 1] = 0.0
-        touched[nt] = key
-        nt += 1
-    sk[key - kb, 0] += x
-    return nt
+    0-1 and records the key, so no pass is needed to clean up afterwards.  Without a branch
+    (selects; the key is written to touched[nt] either way, kept only when new): with one, numba
+    increfs sk and touched at each call."""
+    r = key - kb
+    new = sk[r, 2] != stamp
+    touched[nt] = key
+    sk[r, 0] = (0.0 if new else sk[r, 0]) + x
+    sk[r, 1] = 0.0 if new else sk[r, 1]
+    sk[r, 2] = stamp
+    return nt + new
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, kb, dtouched, nd):
-    """Add drop i's deposit of ``amount`` > 0 over its footprint to the deposit column
+def _lay(nx, ny, L, i, amount, F, I, mode, oy, ox, ow, fc, fw, sk, dtouched, nd):
+    """Add drop i's deposit of ``amount`` > 0 over its wider footprint to the deposit column
     sk[:, 3] (zero at rest; only positive terms, so a key is new while its sum is 0)."""
-    if mode == 0:                     # its own cell (the footprint's weight 1 changes nothing)
-        return _lay_key(I[i, CELL] * L + I[i, KIND], amount, sk, kb, dtouched, nd)
     k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, 0)
-    for q in range(k):
+    for q in range(k):                # (branch-free, as _add; adding x = 0 changes no sum)
         x = amount * fw[q]
-        if x != 0.0:
-            nd = _lay_key(fc[q] * L + I[i, KIND], x, sk, kb, dtouched, nd)
-    return nd
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _lay_key(key, x, sk, kb, dtouched, nd):
-    """x > 0 onto key's deposit sum (recording the key when it is new)."""
-    if sk[key - kb, 3] == 0.0:
+        key = fc[q] * L + I[i, KIND]
         dtouched[nd] = key
-        nd += 1
-    sk[key - kb, 3] += x
+        nd += (x != 0.0) & (sk[key, 3] == 0.0)
+        sk[key, 3] += x
     return nd
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _laid(a, tf, df, sk, kb, dtouched, nd):
+def _laid(a, tf, df, sk, dtouched, nd):
     """particles._deposit's ``thickness += bincount(...) / a`` for the keys laid on (tf, df: the
     flat thickness and deposit)."""
     for t in range(nd):
         key = dtouched[t]
-        add = sk[key - kb, 3] / a
+        add = sk[key, 3] / a
         tf[key] += add
         df[key] += add
-        sk[key - kb, 3] = 0.0
+        sk[key, 3] = 0.0
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -652,26 +634,230 @@ def _cell_starts(I, n, starts):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _cell_layer(key, L, mode, c0, kb):
-    """(cell, layer) of a key; with the one-cell footprint the keys are the cell c0's own (rows
-    from kb = c0 * L), so no integer division."""
-    if mode == 0:
-        return c0, key - kb
-    return key // L, key % L
-
-
-@njit(cache=True, nogil=True, inline="always")
 def _prefetch_cell(c, nx, L, tf, hf, df, path, evaporated, h):
     """Prefetch the lines the interaction reads of cell c (its layers, held water, deposit, path
-    and evaporation ledger, the gradient's three height rows)."""
-    prefetch(tf, c * L)
-    prefetch(hf, c * L)
-    prefetch(df, c * L)
+    and evaporation ledger, the gradient's three height rows).  A cell's L layers may span two
+    lines (with L = 3, one cell in four): both ends are prefetched (a quarter less time)."""
+    for r in (tf, hf, df):
+        prefetch(r, c * L)
+        prefetch(r, c * L + L - 1)
     prefetch(path, c)
     prefetch(evaporated, c)
     prefetch(h, c)
     prefetch(h, max(c - nx, 0))
     prefetch(h, min(c + nx, h.size - 1))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _drop_capacity(F, I, i, ms, cap_k, max_age, fade):
+    """particles.interact's sediment capacity of packed drop i, ms = max(slope, min_slope) at
+    its cell: cap_k V speed ms, faded with age (``fade``)."""
+    capd = cap_k * F[i, VOL] * F[i, SPD] * ms
+    return capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _erode_key(key, got, a, cap, tf, df, hf):
+    """particles.interact's removal of ``got`` > 0 volume from key (cell, layer) (tf, df, hf:
+    the flat thickness, deposit and held water; cap: the layer's capacity per thickness): the
+    layer and its deposit thin, the water held beyond the thinner layer's capacity is released
+    (taken from hf).  Returns (removed / got, released water, removed volume)."""
+    t_old = tf[key]
+    t_new = max(t_old - got / a, 0.0)
+    actual = (t_old - t_new) * a
+    tf[key] = t_new
+    df[key] = max(df[key] - (t_old - t_new), 0.0)
+    excess = max(hf[key] - cap * t_new * a, 0.0) if actual > 0 else 0.0
+    if excess > 0:
+        hf[key] -= excess
+    return actual / got, excess, actual
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _cell_laid(c0, L, a, tf, df, rows):
+    """particles._deposit's ``thickness += bincount(...) / a`` at cell c0: the layers' deposit
+    sums rows[:, 3] (only positive terms: a layer was laid on iff its sum is not 0), reset."""
+    for l in range(L):
+        x = rows[l, 3]
+        if x != 0.0:
+            add = x / a
+            tf[c0 * L + l] += add
+            df[c0 * L + l] += add
+            rows[l, 3] = 0.0
+
+
+# (error_model "numpy": every division below is guarded, so no zero-division checks and their
+# raise paths are compiled in)
+@njit(cache=True, nogil=True, error_model="numpy")
+def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
+                    erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
+                    deposition_rate, max_concentration, erode_stabilised, max_age, fade, captag,
+                    rows, h, dem, lay, starts, k0, k1, evaporated, evaporation):
+    """_interact with the one-cell footprint, cell by cell: a key (cell, layer) hears only its
+    own cell's drops, in drop order, so no number changes.  All drops of a cell absorb into one
+    key (c0, top0): its demand sum is a scalar, its capacity, held water and saturation the same
+    for every drop (computed once); the erosion and deposit keys are (c0, layer): the sums are
+    the L rows of ``rows`` (columns: erosion demand, then got / demand; removed / got; water
+    released per removed volume; deposit).  Per drop scratch: dem (demand), lay (eroded layer).
+    The phases are written out in this one loop, not in helpers: numba often increfs the arrays
+    a helper with branches receives, at each call (two atomic calls per array, per cell).
+    The lines of the cell _AHEAD cells on are prefetched."""
+    capacity_on = len(captag) > 0     # (a compile-time constant, as in _interact)
+    L = thickness.shape[1]
+    a = sp * sp
+    for k in range(k0, min(k0 + _AHEAD, k1)):
+        _prefetch_cell(I[starts[k], CELL], nx, L, tf, hf, df, path, evaporated, h)
+    Ff = F.reshape(-1)
+    If = I.reshape(-1)
+    for k in range(k0, k1):
+        lo = starts[k]
+        hi = starts[k + 1]
+        if k + _AHEAD < k1:             # that cell's lines, and its first drop's packed rows
+            o = starts[k + _AHEAD]
+            _prefetch_cell(I[o, CELL], nx, L, tf, hf, df, path, evaporated, h)
+            prefetch(Ff, o * F.shape[1])
+            prefetch(If, o * I.shape[1])
+        c0 = I[lo, CELL]
+        top0 = _top(thickness, c0, L)           # (one cell: one exposed layer)
+        nmov = 0
+        for i in range(lo, hi):
+            nmov += I[i, MOV]
+        if nmov:
+            path[c0] += nmov                    # (the bincount of moving drops)
+        ms = 0.0                                # max(slope, min_slope) at the cell
+        if capacity_on:
+            gx, gy = _grad(h, c0, nx, ny, sp)
+            ms = max(math.hypot(gx, gy), min_slope)
+        # --- absorption into (c0, top0), deposition by concentration -----------------------------
+        if top0 >= 0 and absorbs[top0]:
+            cap = capacity[top0] * thickness[c0, top0] * a
+            w = held[c0, top0]
+            dry = 1.0 - (_clip(w / cap, 0.0, 1.0) if cap > 0 else 1.0)
+            rate = absorption_rate[top0]
+            tot = 0.0
+            for i in range(lo, hi):
+                v = F[i, VOL]
+                if v > 0:
+                    d = v * rate * dry / (1.0 + F[i, SPD] / speed_ref)
+                    dem[i - lo] = d
+                    tot += d
+            if tot > 0:        # (demands are >= 0: else none wants water, nothing changes)
+                got = min(tot, max(cap - w, 0.0))
+                hf[c0 * L + top0] += got
+                share = got / tot
+                laid = False
+                for i in range(lo, hi):
+                    v_old = F[i, VOL]
+                    if v_old > 0:
+                        g = dem[i - lo] * share
+                        v = max(v_old - g, 0.0)
+                        F[i, VOL] = v
+                        sed = F[i, SED]
+                        if sed > 0:            # (else sed * frac is not > 0: no deposit)
+                            dep = sed if v <= 0 else sed * (g / v_old)
+                            if dep > 0:
+                                rows[I[i, KIND], 3] += dep
+                                F[i, SED] = sed - dep
+                                laid = True
+                if laid:
+                    _cell_laid(c0, L, a, tf, df, rows)
+        # --- erosion by moving drops: demand per layer -------------------------------------------
+        top1 = _top(thickness, c0, L)           # the exposed layer after those deposits
+        for l in range(L):
+            rows[l, 0] = 0.0
+        lc = -1                                 # the last eroded layer, its numbers:
+        el = False                              # exposed, held water, rate * weakness
+        hd = 0.0
+        rw = 0.0
+        ne = 0
+        for i in range(lo, hi):
+            lay[i - lo] = -1
+            v = F[i, VOL]
+            if not ((I[i, MOV] or erode_stabilised) and v > 0):
+                continue
+            cd = I[i, KIND] if I[i, KIND] >= 0 else top0
+            if not (cd >= 0 and erodible[cd]):
+                continue
+            if cd != lc:
+                lc = cd
+                el = top1 == cd
+                hd = held[c0, cd]
+                capl = capacity[cd] * thickness[c0, cd] * a
+                sat = hd / capl if capl > 0 else 1.0
+                th = threshold[cd]
+                weak = max(sat - th, 0.0) / (1.0 - th) if th < 1.0 else 0.0
+                rw = erosion_rate[cd] * weak    # (times the footprint weight 1 first: same bits)
+            pd = rw * (v + hd) if el else 0.0
+            rm = max_concentration * v - F[i, SED]
+            if capacity_on:
+                rm = min(rm, _drop_capacity(F, I, i, ms, cap_k, max_age, fade) - F[i, SED])
+                rm = min(rm, max(-F[i, DH], 0.0) * a)
+            rm = max(rm, 0.0)
+            if pd > rm:                         # (the drop's demand sum is its one demand)
+                pd *= rm / pd
+            rows[cd, 0] += pd
+            dem[i - lo] = pd
+            lay[i - lo] = cd
+            ne += 1
+        # --- erosion: per layer what is removed, then shared back to the drops -------------------
+        hit = False
+        if ne:
+            for l in range(L):
+                tot = rows[l, 0]
+                share = 0.0
+                corr = 0.0
+                rel = 0.0
+                if tot > 0:
+                    key = c0 * L + l
+                    got = min(tot, max(tf[key] * a, 0.0))
+                    share = got / tot
+                    if got > 0:
+                        hit = True
+                        corr, excess, actual = _erode_key(key, got, a, capacity[l], tf, df, hf)
+                        if excess > 0:
+                            rel = excess / actual
+                rows[l, 0] = share
+                rows[l, 1] = corr
+                rows[l, 2] = rel
+        if hit:                # (numpy shares nothing back when no key lost solid)
+            for i in range(lo, hi):
+                cd = lay[i - lo]
+                if cd >= 0:    # its one pair: sums of one term (>= 0, so 0 + g is g)
+                    g = dem[i - lo] * rows[cd, 0] * rows[cd, 1]
+                    F[i, SED] += g
+                    F[i, VOL] += g * rows[cd, 2]
+                    if g > 0:
+                        I[i, KIND] = cd
+        # --- deposition beyond the capacity -------------------------------------------------------
+        if capacity_on:
+            laid = False
+            for i in range(lo, hi):
+                extra = max(F[i, SED] - _drop_capacity(F, I, i, ms, cap_k, max_age, fade), 0.0) * deposition_rate
+                if not I[i, MOV]:
+                    extra = F[i, SED]
+                extra = max(extra, min(max(F[i, DH], 0.0) * a, F[i, SED]))
+                if extra > 0:
+                    rows[I[i, KIND], 3] += extra
+                    F[i, SED] -= extra
+                    laid = True
+            if laid:
+                _cell_laid(c0, L, a, tf, df, rows)
+        # --- empty drops lay what they carry ------------------------------------------------------
+        laid = False
+        for i in range(lo, hi):
+            if not F[i, VOL] > 0 and F[i, SED] > 0:
+                rows[I[i, KIND], 3] += F[i, SED]
+                F[i, SED] -= F[i, SED]
+                laid = True
+        if laid:
+            _cell_laid(c0, L, a, tf, df, rows)
+        if evaporation > 0:     # the cell's water is final: evaporate it now (_evaporate_cell,
+            wet = False         # written out: as a helper its early return costs the increfs)
+            for l in range(L):
+                wet |= held[c0, l] != 0
+            if wet:
+                gx, gy = _grad(h, c0, nx, ny, sp)
+                _evaporate_at(c0, gx, gy, sp, held, evaporated, evaporation)
 
 
 @njit(cache=True, nogil=True)
@@ -681,37 +867,31 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
               oy, ox, ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, starts, k0,
               k1, evaporated, evaporation):
     """particles.interact (and the path count) over the groups k0..k1-1 of packed drops, group k
-    being drops starts[k]..starts[k + 1] - 1, each key's sum in row key - kb of ``rows``.  With the
-    one-cell footprint a group is an occupied cell's drops (in drop order) and a key hears only
-    its own cell's drops, so the phases run one cell at a time on the few rows of ``cell_sk``
-    (kb = cell * L): no number changes while each cell's data stays in cache, and the lines of
-    the cell _AHEAD groups on are prefetched.  Otherwise one group holds all drops in drop order
-    and the phases run once over them on the grid's rows ``sk`` (kb = 0).  Empty drops are left
-    with volume 0 (the caller drops them)."""
+    being drops starts[k]..starts[k + 1] - 1.  With the one-cell footprint a group is an
+    occupied cell's drops (in drop order): _interact_cells, on the rows of ``cell_sk``.
+    Otherwise one group holds all drops in drop order and the phases run once over them, each
+    key's sum in row ``key`` of the grid's rows ``sk``.  Empty drops are left with volume 0 (the
+    caller drops them)."""
     mode = len(fptag) - 1             # the footprint and whether drops have a sediment capacity:
     capacity_on = len(captag) > 0     # tuple lengths, so each combination compiles on its own
-    L = thickness.shape[1]            # and the branches of the others vanish from its loops
+    if mode == 0:                     # and the branches of the others vanish from its loops
+        _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
+                        erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k,
+                        min_slope, deposition_rate, max_concentration, erode_stabilised, max_age,
+                        fade, captag, cell_sk, h, pairs[:, 1], touched, starts, k0, k1,
+                        evaporated, evaporation)
+        return
+    L = thickness.shape[1]
     a = sp * sp
     fc = pkey
     fw = pairs[:, 0]
     pdem = pairs[:, 1]
-    if mode == 0:
-        for k in range(k0, min(k0 + _AHEAD, k1)):
-            _prefetch_cell(I[starts[k], CELL], nx, L, tf, hf, df, path, evaporated, h)
-    c0 = 0
     for k in range(k0, k1):
         lo = starts[k]
         hi = starts[k + 1]
-        rows, kb = sk, 0
-        if mode == 0:
-            if k + _AHEAD < k1:
-                _prefetch_cell(I[starts[k + _AHEAD], CELL], nx, L, tf, hf, df, path, evaporated, h)
-            c0 = I[lo, CELL]
-            rows, kb = cell_sk, c0 * L
-        top0 = _top(thickness, c0, L) if mode == 0 else 0      # (one cell: one exposed layer)
         for i in range(lo, hi):
             c = I[i, CELL]
-            I[i, TOP] = top0 if mode == 0 else _top(thickness, c, L)
+            I[i, TOP] = _top(thickness, c, L)
             if I[i, MOV]:
                 path[c] += 1.0
         # --- absorption (demand per key, grant, deposition by concentration) ---------------------
@@ -735,31 +915,32 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             ent[na, 0] = i
             ent[na, 3] = key
             na += 1
-            nt = _add(rows, kb, st, touched, nt, key, demand)
+            nt = _add(sk, 0, st, touched, nt, key, demand)
             wants = wants or demand > 0
         if wants:             # (no demand: nothing granted, no volume or sediment changes)
             for t in range(nt):                       # per key: the granted total, into held
                 key = touched[t]
-                c, l = _cell_layer(key, L, mode, c0, kb)
+                c = key // L
+                l = key % L
                 cap = capacity[l] * thickness[c, l] * a
-                got = min(rows[key - kb, 0], max(cap - held[c, l], 0.0))
-                rows[key - kb, 1] = got
-                if rows[key - kb, 0] > 0:
+                got = min(sk[key, 0], max(cap - held[c, l], 0.0))
+                sk[key, 1] = got
+                if sk[key, 0] > 0:
                     hf[key] += got
             nd = 0
             for e in range(na):
                 i = ent[e, 0]
                 key = ent[e, 3]
-                tk_ = rows[key - kb, 0]
-                g = pairs[e, 1] * (rows[key - kb, 1] / tk_) if tk_ > 0 else 0.0
+                tk_ = sk[key, 0]
+                g = pairs[e, 1] * (sk[key, 1] / tk_) if tk_ > 0 else 0.0
                 v_old = F[i, VOL]
                 F[i, VOL] = max(v_old - g, 0.0)
                 frac = g / v_old if v_old > 0 else 0.0
                 dep = F[i, SED] if F[i, VOL] <= 0 else F[i, SED] * frac
                 if dep > 0:
-                    nd = _lay(nx, ny, L, i, dep, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
+                    nd = _lay(nx, ny, L, i, dep, F, I, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
                     F[i, SED] -= dep
-            _laid(a, tf, df, rows, kb, dtouched, nd)
+            _laid(a, tf, df, sk, dtouched, nd)
         # --- erosion by moving drops --------------------------------------------------------------
         stamps[0] += 1.0
         st = stamps[0]
@@ -772,7 +953,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             cd = I[i, KIND] if I[i, KIND] >= 0 else I[i, TOP]
             if not (cd >= 0 and erodible[cd]):
                 continue
-            k = _drop_footprint(F, I, i, nx, ny, mode, oy, ox, ow, fc, fw, kk)
+            k = _footprint(F[i, X], F[i, Y], nx, ny, mode, oy, ox, ow, fc, fw, kk)
             per_drop = 0.0
             for q in range(kk, kk + k):
                 pc = fc[q]
@@ -790,10 +971,8 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             rm = max_concentration * F[i, VOL] - F[i, SED]
             if capacity_on:
                 gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
-                slope = math.hypot(gx, gy)
-                capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
-                capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
-                rm = min(rm, capd - F[i, SED])
+                ms = max(math.hypot(gx, gy), min_slope)
+                rm = min(rm, _drop_capacity(F, I, i, ms, cap_k, max_age, fade) - F[i, SED])
                 rm = min(rm, max(-F[i, DH], 0.0) * a)
             rm = max(rm, 0.0)
             lim = rm / per_drop if per_drop > rm else 1.0
@@ -801,7 +980,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                 pdem[q] *= lim
                 key = fc[q] * L + cd
                 fc[q] = key
-                nt = _add(rows, kb, st, touched, nt, key, pdem[q])
+                nt = _add(sk, 0, st, touched, nt, key, pdem[q])
             ent[ne, 0] = i
             ent[ne, 1] = kk
             ent[ne, 2] = cd
@@ -809,72 +988,59 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             kk += k
         ent[ne, 1] = kk
         if ne:
-            # per key: what is removed; then rows[:, 0] = got / total, rows[:, 1] = removed / got,
-            # rows[:, 3] = water released per removed volume (reset below)
+            # per key: what is removed; then sk[:, 0] = got / total, sk[:, 1] = removed / got,
+            # sk[:, 3] = water released per removed volume (reset below)
             nrel = 0
             for t in range(nt):
                 key = touched[t]
-                tot = rows[key - kb, 0]
+                tot = sk[key, 0]
                 got = min(tot, max(tf[key] * a, 0.0)) if tot > 0 else 0.0
-                rows[key - kb, 0] = got / tot if tot > 0 else 0.0
+                sk[key, 0] = got / tot if tot > 0 else 0.0
                 corr = 0.0
                 if got > 0:
-                    t_old = tf[key]
-                    t_new = max(t_old - got / a, 0.0)
-                    actual = (t_old - t_new) * a
-                    tf[key] = t_new
-                    df[key] = max(df[key] - (t_old - t_new), 0.0)
-                    corr = actual / got
-                    c, l = _cell_layer(key, L, mode, c0, kb)
-                    capn = capacity[l] * thickness[c, l] * a
-                    excess = max(hf[key] - capn, 0.0) if actual > 0 else 0.0
+                    corr, excess, actual = _erode_key(key, got, a, capacity[key % L], tf, df, hf)
                     if excess > 0:
-                        hf[key] -= excess
-                        rows[key - kb, 3] = excess / (actual if actual > 0 else 1.0)
+                        sk[key, 3] = excess / actual
                         dtouched[nrel] = key
                         nrel += 1
-                rows[key - kb, 1] = corr
+                sk[key, 1] = corr
             for e in range(ne):
                 i = ent[e, 0]
                 taken = 0.0
                 back = 0.0
                 for q in range(ent[e, 1], ent[e + 1, 1]):
                     key = fc[q]
-                    g = pdem[q] * rows[key - kb, 0] * rows[key - kb, 1]
+                    g = pdem[q] * sk[key, 0] * sk[key, 1]
                     taken += g
-                    back += g * rows[key - kb, 3]
+                    back += g * sk[key, 3]
                 F[i, SED] += taken
                 F[i, VOL] += back
                 if taken > 0:
                     I[i, KIND] = ent[e, 2]
             for t in range(nrel):
-                rows[dtouched[t] - kb, 3] = 0.0
+                sk[dtouched[t], 3] = 0.0
         # --- deposition beyond the capacity -------------------------------------------------------
         if capacity_on:
             nd = 0
             for i in range(lo, hi):
                 gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
-                slope = math.hypot(gx, gy)
-                capd = cap_k * F[i, VOL] * F[i, SPD] * max(slope, min_slope)
-                capd = capd * (_clip(1.0 - I[i, AGE] / max_age, 0.0, 1.0) if fade else 1.0)
-                extra = max(F[i, SED] - capd, 0.0) * deposition_rate
+                ms = max(math.hypot(gx, gy), min_slope)
+                extra = max(F[i, SED] - _drop_capacity(F, I, i, ms, cap_k, max_age, fade), 0.0) * deposition_rate
                 if not I[i, MOV]:
                     extra = F[i, SED]
                 extra = max(extra, min(max(F[i, DH], 0.0) * a, F[i, SED]))
                 if extra > 0:
-                    nd = _lay(nx, ny, L, i, extra, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
+                    nd = _lay(nx, ny, L, i, extra, F, I, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
                     F[i, SED] -= extra
-            _laid(a, tf, df, rows, kb, dtouched, nd)
+            _laid(a, tf, df, sk, dtouched, nd)
         # --- empty drops lay what they carry ------------------------------------------------------
         nd = 0
         for i in range(lo, hi):
             if not F[i, VOL] > 0 and F[i, SED] > 0:
                 s_ = F[i, SED]
-                nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, rows, kb, dtouched, nd)
+                nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
                 F[i, SED] -= s_
-        _laid(a, tf, df, rows, kb, dtouched, nd)
-        if mode == 0 and evaporation > 0:       # the cell's water is final: evaporate it now
-            _evaporate_cell(c0, ny, nx, sp, h, held, evaporated, evaporation)
+        _laid(a, tf, df, sk, dtouched, nd)
 
 
 @njit(cache=True, nogil=True, parallel=True)
