@@ -851,13 +851,13 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
                 laid = True
         if laid:
             _cell_laid(c0, L, a, tf, df, rows)
-        if evaporation > 0:     # the cell's water is final: evaporate it now (_evaporate_cell,
-            wet = False         # written out: as a helper its early return costs the increfs)
+        if evaporation > 0:     # the cell's water is final: evaporate it now (written out: a
+            wet = False         # helper with an early return costs numba's increfs)
             for l in range(L):
                 wet |= held[c0, l] != 0
             if wet:
                 gx, gy = _grad(h, c0, nx, ny, sp)
-                _evaporate_at(c0, gx, gy, sp, held, evaporated, evaporation)
+                _evaporate_at(c0, gx, gy, sp, held, evaporated, evaporation, False)
 
 
 @njit(cache=True, nogil=True)
@@ -1122,24 +1122,6 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         _release(ny, nx, sp, thickness, held, capacity, evaporated, h, False, evaporation, ib,
                  starts, 0, rows, nth)
     return m
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _wet(held, c):
-    """Whether cell c holds water in any layer."""
-    for l in range(held.shape[1]):
-        if held[c, l] != 0:
-            return True
-    return False
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _evaporate_cell(c, ny, nx, sp, h, held, evaporated, evaporation):
-    """particles.evaporate at cell c (a no-op on a dry cell), start-of-step gradient."""
-    if not _wet(held, c):
-        return
-    gx, gy = _grad(h, c, nx, ny, sp)
-    _evaporate_at(c, gx, gy, sp, held, evaporated, evaporation, False)
 
 
 @njit(cache=True, nogil=True, inline="always")
