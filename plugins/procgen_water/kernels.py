@@ -82,7 +82,7 @@ class Work:
         threads = numba.config.NUMBA_NUM_THREADS            # the most a step can use
         self.rows = np.zeros((threads, 2, nx), np.int32)    # per thread: a row's wet / occupied
         self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
-        self.stamps = np.zeros(threads + 1)                 # phase stamps: sk's, then per thread
+        self.stamps = np.zeros(1)                           # sk's phase stamp
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
         self.offsets = np.empty(threads + 1, np.int64)      # per thread: its first output drop
         self.h = np.empty(ncell)
@@ -1100,11 +1100,10 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         hi = starts[chunks[t + 1]]
         e = hi + 1 if mode == 0 else ent.shape[0]     # scratch of the other footprints: all of it
         q = hi + 1 if mode == 0 else pairs.shape[0]
-        st = t + 1 if mode == 0 else 0                # sk's stamp, or the thread's own
         _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
                   erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
                   deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag, oy,
-                  ox, ow, sk, cell_sk[t], stamps[st:st + 1], h, ent[lo:e], pairs[lo:q],
+                  ox, ow, sk, cell_sk[t], stamps, h, ent[lo:e], pairs[lo:q],
                   pkey[lo:q], touched[lo:q], dtouched[lo:q], starts, chunks[t], chunks[t + 1],
                   evaporated, evaporation)
     # --- the drops with water back into the caller's arrays, in end-cell order: with the
