@@ -277,17 +277,16 @@ def _footprint(x, y, nx, ny, mode, oy, ox, ow, cells, w, base):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _add(sk, kb, stamp, touched, nt, key, x):
-    """sk[key - kb, 0] += x for this phase (``stamp``): the first touch zeroes the row's columns
+def _add(sk, stamp, touched, nt, key, x):
+    """sk[key, 0] += x for this phase (``stamp``): the first touch zeroes the row's columns
     0-1 and records the key, so no pass is needed to clean up afterwards.  Without a branch
     (selects; the key is written to touched[nt] either way, kept only when new): with one, numba
     increfs sk and touched at each call."""
-    r = key - kb
-    new = sk[r, 2] != stamp
+    new = sk[key, 2] != stamp
     touched[nt] = key
-    sk[r, 0] = (0.0 if new else sk[r, 0]) + x
-    sk[r, 1] = 0.0 if new else sk[r, 1]
-    sk[r, 2] = stamp
+    sk[key, 0] = (0.0 if new else sk[key, 0]) + x
+    sk[key, 1] = 0.0 if new else sk[key, 1]
+    sk[key, 2] = stamp
     return nt + new
 
 
@@ -603,18 +602,17 @@ def _place(F, I, key, slot, placed, pos, vel, volume, sediment, kind, moving, ag
 def _drain(F, I, skey, n, L, sk, stamps, touched, drained, drained_sed):
     """Drained water and sediment of the drops that left (key -1; their rows are ``_move``'s),
     summed per start cell in drop order, then added."""
-    kb = 0
     stamps[0] += 1.0
     nt = 0
     for i in range(n):
         if skey[i] < 0:
             key = I[i, CELL] * L
-            nt = _add(sk, kb, stamps[0], touched, nt, key, F[i, VOL])
-            sk[key - kb, 1] += F[i, SED]
+            nt = _add(sk, stamps[0], touched, nt, key, F[i, VOL])
+            sk[key, 1] += F[i, SED]
     for t in range(nt):
         key = touched[t]
-        drained[key // L] += sk[key - kb, 0]
-        drained_sed[key // L] += sk[key - kb, 1]
+        drained[key // L] += sk[key, 0]
+        drained_sed[key // L] += sk[key, 1]
 
 
 @njit(cache=True, nogil=True)
@@ -915,7 +913,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             ent[na, 0] = i
             ent[na, 3] = key
             na += 1
-            nt = _add(sk, 0, st, touched, nt, key, demand)
+            nt = _add(sk, st, touched, nt, key, demand)
             wants = wants or demand > 0
         if wants:             # (no demand: nothing granted, no volume or sediment changes)
             for t in range(nt):                       # per key: the granted total, into held
@@ -980,7 +978,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                 pdem[q] *= lim
                 key = fc[q] * L + cd
                 fc[q] = key
-                nt = _add(sk, 0, st, touched, nt, key, pdem[q])
+                nt = _add(sk, st, touched, nt, key, pdem[q])
             ent[ne, 0] = i
             ent[ne, 1] = kk
             ent[ne, 2] = cd
