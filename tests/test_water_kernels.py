@@ -84,9 +84,9 @@ def test_compiled_step_keeps_no_grid_sized_temporaries_between_steps():
     assert not work.sk[:, 3].any()                # the deposit columns are left at zero
     assert not work.cell_sk[..., 3].any()
     assert work.grid_bytes == s.ncell * K.bytes_per_cell(s.n_layers) + 4     # + 1 sort slot
-    ids = [id(a) for a in (work.fa, work.fb, work.offsets, work.pairs)]
+    ids = [id(a) for a in (work.fa, work.fb, work.kept, work.pairs)]
     d = P.step(s, d, p, accelerate=True)
-    assert ids == [id(a) for a in (work.fa, work.fb, work.offsets, work.pairs)]
+    assert ids == [id(a) for a in (work.fa, work.fb, work.kept, work.pairs)]
 
 
 def test_accelerate_true_without_numba_is_one_line_error(monkeypatch):

@@ -37,10 +37,11 @@ often increfs and decrefs (atomic calls) the arrays an inlined helper with branc
 each call (check the assembly for NRT_incref), which cost that loop about 40% of its time.
 
 Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops' move
-and the write-back in chunks of drops, and with the one-cell footprint the interaction in chunks
-of whole cells (each with its own key rows and scratch); every number belongs to one cell or one
-drop, so the result does not depend on the thread count.  The counting sort, the drain and the
-wider footprints' interaction stay serial.
+and placing in chunks of drops, and with the one-cell footprint the interaction in chunks of
+whole cells (each with its own key rows and scratch), each chunk writing its drops back while
+they are in cache (then the chunks close up); every number belongs to one cell or one drop, so
+the result does not depend on the thread count.  The counting sort, the drain and the wider
+footprints' interaction stay serial.
 
 Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
 height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
@@ -85,7 +86,7 @@ class Work:
         self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
         self.stamps = np.zeros(1)                           # sk's phase stamp
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
-        self.offsets = np.empty(threads + 1, np.int64)      # per thread: its first output drop
+        self.kept = np.empty(threads + 1, np.int64)         # per thread: its drops with water
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
         self.cap = 0
@@ -164,7 +165,7 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               bool(p.erode_stabilised), fade, (0,) * (fp + 1), (0,) * int(cap_k >= 0),
               oy.astype(np.int64), ox.astype(np.int64),
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
-              work.chunks, work.offsets, min(numba.get_num_threads(), work.chunks.size - 1),
+              work.chunks, work.kept, min(numba.get_num_threads(), work.chunks.size - 1),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.starts, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched, work.occs, work.bufs, (0,) * s.n_layers)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
@@ -353,29 +354,6 @@ def _copy_row(F, I, o, G, J, j):
     for q in range(8):
         G[j, q] = F[o, q]
         J[j, q] = I[o, q]
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def _compact(F, I, n, offsets, nth, pos, vel, volume, sediment, kind, moving, age):
-    """The packed drops with water, in their order, into the caller's arrays front to back (in
-    ``nth`` chunks: each counts its survivors, then writes from its offset); returns how many."""
-    nt = max(1, min(nth, n // 4096))
-    for t in prange(nt):
-        k = 0
-        for o in range(n * t // nt, n * (t + 1) // nt):
-            if F[o, VOL] > 0:
-                k += 1
-        offsets[t + 1] = k
-    offsets[0] = 0
-    for t in range(nt):
-        offsets[t + 1] += offsets[t]
-    for t in prange(nt):
-        j = offsets[t]
-        for o in range(n * t // nt, n * (t + 1) // nt):
-            if F[o, VOL] > 0:
-                _unpack(F, I, o, j, pos, vel, volume, sediment, kind, moving, age)
-                j += 1
-    return offsets[nt]
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -715,7 +693,7 @@ def _cell_laid(c0, L, a, tf, df, rows):
 def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
                     erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
                     deposition_rate, max_concentration, erode_stabilised, max_age, fade, captag,
-                    rows, h, dem, lay, starts, k0, k1, evaporated, evaporation):
+                    rows, h, dem, lay, starts, k0, k1, evaporated, evaporation, ltag, out):
     """_interact with the one-cell footprint, cell by cell: a key (cell, layer) hears only its
     own cell's drops, in drop order, so no number changes.  All drops of a cell absorb into one
     key (c0, top0): its demand sum is a scalar, its capacity, held water and saturation the same
@@ -724,14 +702,19 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
     released per removed volume; deposit).  Per drop scratch: dem (demand), lay (eroded layer).
     The phases are written out in this one loop, not in helpers: numba often increfs the arrays
     a helper with branches receives, at each call (two atomic calls per array, per cell).
-    The lines of the cell _AHEAD cells on are prefetched."""
-    capacity_on = len(captag) > 0     # (a compile-time constant, as in _interact)
-    L = thickness.shape[1]
+    The lines of the cell _AHEAD cells on are prefetched.  Each cell's drops with water are
+    then written back, in order, into the caller's arrays ``out`` (pos, vel, volume, sediment,
+    kind, moving, age) from index starts[k0] on (never past the drop being written: no other
+    chunk's range is touched), while their rows are in cache; returns how many."""
+    capacity_on = len(captag) > 0     # (compile-time constants, as in _interact)
+    L = len(ltag)
     a = sp * sp
     for k in range(k0, min(k0 + _AHEAD, k1)):
         _prefetch_cell(I[starts[k], CELL], nx, L, tf, hf, df, path, evaporated, h)
     Ff = F.reshape(-1)
     If = I.reshape(-1)
+    pos, vel, volume, sediment, kind, moving, age = out
+    j = starts[k0]
     for k in range(k0, k1):
         lo = starts[k]
         hi = starts[k + 1]
@@ -880,7 +863,11 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
                 wet |= held[c0, l] != 0
             if wet:
                 gx, gy = _grad(h, c0, nx, ny, sp)
-                _evaporate_at(c0, gx, gy, sp, held, evaporated, evaporation)
+                _evaporate_at(c0, gx, gy, sp, held, evaporated, evaporation, L)
+        for i in range(lo, hi):     # (branch-free: an empty drop is overwritten by the next)
+            _unpack(F, I, i, j, pos, vel, volume, sediment, kind, moving, age)
+            j += F[i, VOL] > 0
+    return j - starts[k0]
 
 
 @njit(cache=True, nogil=True)
@@ -888,22 +875,21 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag,
               oy, ox, ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, starts, k0,
-              k1, evaporated, evaporation):
+              k1, evaporated, evaporation, ltag, out):
     """particles.interact (and the path count) over the groups k0..k1-1 of packed drops, group k
     being drops starts[k]..starts[k + 1] - 1.  With the one-cell footprint a group is an
     occupied cell's drops (in drop order): _interact_cells, on the rows of ``cell_sk``.
     Otherwise one group holds all drops in drop order and the phases run once over them, each
-    key's sum in row ``key`` of the grid's rows ``sk``.  Empty drops are left with volume 0 (the
-    caller drops them)."""
+    key's sum in row ``key`` of the grid's rows ``sk``: empty drops are left with volume 0 (the
+    caller drops them), and 0 is returned."""
     mode = len(fptag) - 1             # the footprint and whether drops have a sediment capacity:
     capacity_on = len(captag) > 0     # tuple lengths, so each combination compiles on its own
     if mode == 0:                     # and the branches of the others vanish from its loops
-        _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
-                        erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k,
-                        min_slope, deposition_rate, max_concentration, erode_stabilised, max_age,
-                        fade, captag, cell_sk, h, pairs[:, 1], touched, starts, k0, k1,
-                        evaporated, evaporation)
-        return
+        return _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate,
+                               capacity, erosion_rate, threshold, absorbs, erodible, F, I,
+                               speed_ref, cap_k, min_slope, deposition_rate, max_concentration,
+                               erode_stabilised, max_age, fade, captag, cell_sk, h, pairs[:, 1],
+                               touched, starts, k0, k1, evaporated, evaporation, ltag, out)
     L = thickness.shape[1]
     a = sp * sp
     fc = pkey
@@ -1064,6 +1050,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                 nd = _lay(nx, ny, L, i, s_, F, I, mode, oy, ox, ow, fc, fw, sk, dtouched, nd)
                 F[i, SED] -= s_
         _laid(a, tf, df, sk, dtouched, nd)
+    return 0
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -1072,7 +1059,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, fptag,
-          captag, oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, offsets, nth, min_chunk,
+          captag, oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, kept, nth, min_chunk,
           fa, ia, fb, ib, rk, starts, ent, pairs, pkey, touched, dtouched, occs, bufs, ltag):
     mode = len(fptag) - 1                         # compile-time constants (see _interact)
     L = thickness.shape[1]
@@ -1113,27 +1100,44 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     _release(ny, nx, sp, thickness, held, capacity, evaporated, h, True,
              evaporation if mode == 0 else 0.0, ib, starts, ncell if mode == 0 else 0, occs, bufs, nth,
              ltag)
-    # --- interact: with the one-cell footprint in chunks of whole cells, one per thread ----------
+    # --- interact: with the one-cell footprint in chunks of whole cells, one per thread, each
+    # writing its drops with water back into the caller's arrays from its first drop on -------
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
     chunks[0] = 0                                 # per thread: whole cells, about n / nt drops
     for t in range(1, nt):
         chunks[t] = max(np.searchsorted(starts[:ncell], n * t // nt), chunks[t - 1])
     chunks[nt] = ncell
+    out = (pos, vel, volume, sediment, kind, moving, age)
     for t in prange(nt):
         lo = starts[chunks[t]]
         hi = starts[chunks[t + 1]]
         e = hi + 1 if mode == 0 else ent.shape[0]     # scratch of the other footprints: all of it
         q = hi + 1 if mode == 0 else pairs.shape[0]
-        _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
-                  erosion_rate, threshold, absorbs, erodible, fb, ib, speed_ref, cap_k, min_slope,
-                  deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag, oy,
-                  ox, ow, sk, cell_sk[t], stamps, h, ent[lo:e], pairs[lo:q],
-                  pkey[lo:q], touched[lo:q], dtouched[lo:q], starts, chunks[t], chunks[t + 1],
-                  evaporated, evaporation)
-    # --- the drops with water back into the caller's arrays, in end-cell order: with the
-    # one-cell footprint the packed order already, compacted chunk by chunk; else sorted ------
+        kept[t] = _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate,
+                               capacity, erosion_rate, threshold, absorbs, erodible, fb, ib,
+                               speed_ref, cap_k, min_slope, deposition_rate, max_concentration,
+                               erode_stabilised, max_age, fade, fptag, captag, oy, ox, ow, sk,
+                               cell_sk[t], stamps, h, ent[lo:e], pairs[lo:q], pkey[lo:q],
+                               touched[lo:q], dtouched[lo:q], starts, chunks[t], chunks[t + 1],
+                               evaporated, evaporation, ltag, out)
+    # --- the drops with water, in end-cell order, front to back in the caller's arrays: with the
+    # one-cell footprint each chunk's are moved down to close the gaps (the empty drops of the
+    # chunks before: few); else unpacked in sorted order ---------------------------------------
     if mode == 0:
-        m = _compact(fb, ib, n, offsets, nth, pos, vel, volume, sediment, kind, moving, age)
+        m = 0
+        for t in range(nt):
+            lo = starts[chunks[t]]
+            for o in range(kept[t] if lo != m else 0):   # (dest < source: a forward copy)
+                pos[m + o, 0] = pos[lo + o, 0]
+                pos[m + o, 1] = pos[lo + o, 1]
+                vel[m + o, 0] = vel[lo + o, 0]
+                vel[m + o, 1] = vel[lo + o, 1]
+                volume[m + o] = volume[lo + o]
+                sediment[m + o] = sediment[lo + o]
+                kind[m + o] = kind[lo + o]
+                moving[m + o] = moving[lo + o]
+                age[m + o] = age[lo + o]
+            m += kept[t]
     else:
         for o in prange(n):
             key[o] = ib[o, CELL] if fb[o, VOL] > 0 else -1
@@ -1148,9 +1152,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _evaporate_at(c, gx, gy, sp, held, evaporated, evaporation):
-    """particles.evaporate at wet cell c whose surface gradient is (gx, gy)."""
-    L = held.shape[1]
+def _evaporate_at(c, gx, gy, sp, held, evaporated, evaporation, L):
+    """particles.evaporate at wet cell c (of L layers) whose surface gradient is (gx, gy)."""
     budget = evaporation * ((sp * sp) * math.sqrt(1.0 + gx * gx + gy * gy))
     total = 0.0
     for l in range(L - 1, -1, -1):
