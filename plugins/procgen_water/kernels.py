@@ -22,17 +22,18 @@ cell, and the stable sort keeps them in drop order, so sorting by cell changes n
 footprints (a key hears drops of several cells) interact in drop order and are sorted by cell
 afterwards, as numpy's ``in_cell_order`` does.  The surface gradient is evaluated where needed
 from a start-of-step height buffer (``np.gradient``'s formulas).  The release of excess water
-runs after the move (which reads no held water); with the one-cell footprint a cell's water is
-final once its drops have interacted (absorption wets only a drop's own cell), so the cells
-without drops evaporate in the release pass and the drops' cells at the end of their
-interaction, while their rows are in cache: no separate evaporation pass.
+runs first, as in ``particles.step``, in the pass that computes that height; with the one-cell
+footprint a cell's water is final once its drops have interacted (absorption wets only a
+drop's own cell), so the cells without drops evaporate in a grid pass before the interaction
+and the drops' cells at the end of their interaction, while their rows are in cache.
 
-Speed (a loop like this one mostly waits for memory and for mispredicted branches): the footprint and whether drops have a sediment capacity are tuple-length tags, so numba
-compiles each combination on its own and the others' branches vanish from the interaction
-(a third faster); the interaction walks a list of the occupied cells' first drops and prefetches
-(procgen.prefetch) the grid lines of the cell ``_AHEAD`` cells on, the move those of the drop
-``_AHEAD`` drops on: the occupied cells are sorted but sparse, a pattern the hardware does not
-guess.  The one-cell footprint's interaction is one loop with its phases written out: numba
+Speed (a loop like this one mostly waits for memory and for mispredicted branches): the
+footprint, whether drops have a sediment capacity and the layer count are tuple-length tags,
+so numba compiles each combination on its own, the others' branches vanish from the
+interaction (a third faster) and the layer loops unroll; the interaction walks a list of the
+occupied cells' first drops and prefetches (procgen.prefetch) the grid lines of the cell
+``_AHEAD`` cells on, the move those of the drop ``_AHEAD`` drops on: the occupied cells are
+sorted but sparse, a pattern the hardware does not guess.  The one-cell footprint's interaction is one loop with its phases written out: numba
 often increfs and decrefs (atomic calls) the arrays an inlined helper with branches receives, at
 each call (check the assembly for NRT_incref), which cost that loop about 40% of its time.
 
@@ -356,37 +357,61 @@ def _copy_row(F, I, o, G, J, j):
         J[j, q] = I[o, q]
 
 
-@njit(cache=True, nogil=True, parallel=True)
-def _height(nc, base, thickness, h, nt):
-    """Surface.height (base plus the layers, bottom first) in ``nt`` chunks of cells."""
-    L = thickness.shape[1]
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _height_release(ny, nx, sp, base, thickness, held, capacity, evaporated, h, bufs, nt, ltag):
+    """Surface.height (base plus the layers, bottom first) into ``h``, and
+    particles.release_excess: one pass over the grid in ``nt`` chunks of rows, as both read the
+    layers (the move reads no held water, so releasing before it changes no number).  Whether
+    any cell of a row holds water above capacity is one flat pass over the row's layers, which
+    the compiler vectorizes (capacity tiled along it in ``bufs[t, nx:]``); only then (rare:
+    after another rule thinned a layer) do its cells release it.  ``ltag``'s length is the
+    layer count, a compile-time constant, so the layer loops unroll."""
+    L = len(ltag)
+    a = sp * sp
     for t in prange(nt):
-        for c in range(nc * t // nt, nc * (t + 1) // nt):
-            hc = base[c]
+        capv = bufs[t, nx:]
+        for k in range(nx):
             for l in range(L):
-                hc += thickness[c, l]
-            h[c] = hc
+                capv[k * L + l] = capacity[l]
+        for j in range(ny * t // nt, ny * (t + 1) // nt):
+            r0 = j * nx
+            for i in range(r0, r0 + nx):
+                hc = base[i]
+                for l in range(L):
+                    hc += thickness[i, l]
+                h[i] = hc
+            hf = held.reshape(-1)[r0 * L:(r0 + nx) * L]
+            tf = thickness.reshape(-1)[r0 * L:(r0 + nx) * L]
+            over = False
+            for k in range(nx * L):
+                over |= hf[k] - capv[k] * tf[k] * a > 0
+            if over:
+                for i in range(r0, r0 + nx):
+                    tot = 0.0
+                    for l in range(L):
+                        ex = max(held[i, l] - capacity[l] * thickness[i, l] * a, 0.0)
+                        if ex > 0:
+                            held[i, l] -= ex
+                            tot += ex
+                    if tot > 0:
+                        evaporated[i] += tot
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, release, evaporation, I, starts,
-             nocc, occs, bufs, nt, ltag):
-    """One pass over the grid in ``nt`` chunks of rows: with ``release``, particles.release_excess;
-    with ``evaporation`` > 0, then particles.evaporate at the cells that hold no drop (the
-    ``nocc`` occupied cells, first drops ``starts`` of the packed drops ``I`` in cell order: with
-    the one-cell footprint absorption wets only a drop's own cell, so the others' water is final
-    here; the interaction evaporates the drops' cells).  Each cell is its own: neither the chunks
-    nor the order change a number.  ``ltag``'s length is the layer count, a compile-time
-    constant, so the layer loops unroll.
+def _evaporate(ny, nx, sp, held, evaporated, h, evaporation, I, starts, nocc, occs, bufs, nt,
+               ltag):
+    """particles.evaporate at the cells that hold no drop (the ``nocc`` occupied cells, first
+    drops ``starts`` of the packed drops ``I`` in cell order: with the one-cell footprint
+    absorption wets only a drop's own cell, so the others' water is final here; the
+    interaction evaporates the drops' cells), in ``nt`` chunks of rows.  Each cell is its own:
+    neither the chunks nor the order change a number.
 
     Made for the hardware (measured on a 512 x 512 x 3 grid, a third of it wet, 2 threads: 2.8
-    -> 1.6 ms): every cell of a row is treated alike, without a branch, in loops the compiler
-    vectorizes; a dry cell or one holding a drop (``occs[t]`` flags the row's occupied
-    columns) evaporates with a budget of 0, which changes no bit (held and the ledger are never
-    negative).  Whether any cell of the row holds water above capacity is one flat pass over
-    the row's layers (capacity tiled along it in ``bufs[t, nx:]``); only then (rare: after
-    another rule thinned a layer) do its cells release it.  The budgets (``bufs[t, :nx]``: the
-    slope's square root) come first in a loop of their own, then the layers take from them."""
+    -> 1.6 ms with the release then in the same pass): every cell of a row is treated alike,
+    without a branch, in loops the compiler vectorizes; a dry cell or one holding a drop
+    (``occs[t]`` flags the row's occupied columns) evaporates with a budget of 0, which changes
+    no bit (held and the ledger are never negative).  The budgets (``bufs[t, :nx]``: the slope's
+    square root) come first in a loop of their own, then the layers take from them."""
     L = len(ltag)
     a = sp * sp
     s2 = 2.0 * sp
@@ -394,10 +419,6 @@ def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, release, evap
         j0 = ny * t // nt
         occ = occs[t]
         bud = bufs[t, :nx]
-        capv = bufs[t, nx:]
-        for k in range(nx):
-            for l in range(L):
-                capv[k * L + l] = capacity[l]
         lo = 0                                   # the first occupied cell in this chunk's rows
         hi = nocc
         while lo < hi:
@@ -413,50 +434,33 @@ def _release(ny, nx, sp, thickness, held, capacity, evaporated, h, release, evap
             while q < nocc and I[starts[q], CELL] < r0 + nx:
                 occ[I[starts[q], CELL] - r0] = 1
                 q += 1
+            up = r0 - nx if j > 0 else r0            # np.gradient's rows: central, or
+            dn = r0 + nx if j < ny - 1 else r0       # one-sided at the edges
+            dy = s2 if up != r0 and dn != r0 else sp
+            hr = h[r0:r0 + nx]
+            hu = h[up:up + nx]
+            hd = h[dn:dn + nx]
+            for i in range(1, nx - 1):
+                gx = (hr[i + 1] - hr[i - 1]) / s2
+                gy = (hd[i] - hu[i]) / dy
+                b = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
+                bud[i] = 0.0 if occ[i] != 0 else b
+            for i in (0, nx - 1):
+                gx, gy = _grad_ij(h, r0 + i, i, j, nx, ny, sp)
+                b = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
+                bud[i] = 0.0 if occ[i] != 0 else b
             hl = held[r0:r0 + nx]
             ev = evaporated[r0:r0 + nx]
-            if release:
-                hf = held.reshape(-1)[r0 * L:(r0 + nx) * L]
-                tf = thickness.reshape(-1)[r0 * L:(r0 + nx) * L]
-                over = False
-                for k in range(nx * L):
-                    over |= hf[k] - capv[k] * tf[k] * a > 0
-                if over:
-                    for i in range(nx):
-                        tot = 0.0
-                        for l in range(L):
-                            ex = max(hl[i, l] - capacity[l] * thickness[r0 + i, l] * a, 0.0)
-                            if ex > 0:
-                                hl[i, l] -= ex
-                                tot += ex
-                        if tot > 0:
-                            ev[i] += tot
-            if evaporation > 0:
-                up = r0 - nx if j > 0 else r0            # np.gradient's rows: central, or
-                dn = r0 + nx if j < ny - 1 else r0       # one-sided at the edges
-                dy = s2 if up != r0 and dn != r0 else sp
-                hr = h[r0:r0 + nx]
-                hu = h[up:up + nx]
-                hd = h[dn:dn + nx]
-                for i in range(1, nx - 1):
-                    gx = (hr[i + 1] - hr[i - 1]) / s2
-                    gy = (hd[i] - hu[i]) / dy
-                    b = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
-                    bud[i] = 0.0 if occ[i] != 0 else b
-                for i in (0, nx - 1):
-                    gx, gy = _grad_ij(h, r0 + i, i, j, nx, ny, sp)
-                    b = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
-                    bud[i] = 0.0 if occ[i] != 0 else b
-                for i in range(nx):                  # particles.evaporate, top layer first
-                    budget = bud[i]
-                    total = 0.0
-                    for l in range(L - 1, -1, -1):
-                        v = hl[i, l]
-                        e = min(v, budget)
-                        hl[i, l] = v - e
-                        budget -= e
-                        total += e
-                    ev[i] += total
+            for i in range(nx):                      # top layer first
+                budget = bud[i]
+                total = 0.0
+                for l in range(L - 1, -1, -1):
+                    v = hl[i, l]
+                    e = min(v, budget)
+                    hl[i, l] = v - e
+                    budget -= e
+                    total += e
+                ev[i] += total
             for k in range(q0, q):
                 occ[I[starts[k], CELL] - r0] = 0
 
@@ -1069,7 +1073,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     tf = thickness.reshape(-1)
     hf = held.reshape(-1)
     df = deposit.reshape(-1)
-    _height(ny * nx, base, thickness, h, nth)
+    _height_release(ny, nx, sp, base, thickness, held, capacity, evaporated, h, bufs, nth, ltag)
     # --- move (reading the caller's arrays, in their order: the cell order of the last step
     # plus any drops appended since) into packed rows, drain -----------------------------------
     nout = _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
@@ -1095,11 +1099,10 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         ncell = 1
         starts[0] = 0
         starts[1] = n
-    # --- release (move and drain read no held water); with the one-cell footprint, evaporate the
-    # cells without drops -----------------------------------------------------------------------
-    _release(ny, nx, sp, thickness, held, capacity, evaporated, h, True,
-             evaporation if mode == 0 else 0.0, ib, starts, ncell if mode == 0 else 0, occs, bufs, nth,
-             ltag)
+    # --- with the one-cell footprint, evaporate the cells without drops ------------------------
+    if mode == 0 and evaporation > 0:
+        _evaporate(ny, nx, sp, held, evaporated, h, evaporation, ib, starts, ncell, occs, bufs, nth,
+                   ltag)
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread, each
     # writing its drops with water back into the caller's arrays from its first drop on -------
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
@@ -1146,8 +1149,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
             if key[o] >= 0:
                 _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
     if evaporation > 0 and mode != 0:
-        _release(ny, nx, sp, thickness, held, capacity, evaporated, h, False, evaporation, ib,
-                 starts, 0, occs, bufs, nth, ltag)
+        _evaporate(ny, nx, sp, held, evaporated, h, evaporation, ib, starts, 0, occs, bufs, nth,
+                   ltag)
     return m
 
 
