@@ -28,18 +28,19 @@ drop's own cell), so the cells without drops evaporate in a grid pass before the
 and the drops' cells at the end of their interaction, while their rows are in cache.
 
 Speed (a loop like this one mostly waits for memory and for mispredicted branches): the
-footprint, whether drops have a sediment capacity and the layer count are tuple-length tags,
-so numba compiles each combination on its own, the others' branches vanish from the
-interaction (a third faster) and the layer loops unroll; the interaction walks a list of the
-occupied cells' first drops and prefetches (procgen.prefetch) the grid lines of the cell
-``_AHEAD`` cells on, the move those of the drop ``_AHEAD`` drops on: the occupied cells are
-sorted but sparse, a pattern the hardware does not guess.  The one-cell footprint's interaction is one loop with its phases written out: numba
-often increfs and decrefs (atomic calls) the arrays an inlined helper with branches receives, at
-each call (check the assembly for NRT_incref), which cost that loop about 40% of its time.
+footprint, whether drops have a sediment capacity and the layer count are tuple-length tags, so
+numba compiles each combination on its own, the others' branches vanish from the interaction (a
+third faster) and the layer loops unroll; the interaction walks a list of the occupied cells'
+first drops and prefetches (procgen.prefetch) the grid lines of the cell ``_AHEAD`` cells on,
+the move those of the drop ``_AHEAD`` drops on if it moves: the occupied cells are sorted but sparse, a
+pattern the hardware does not guess.  The one-cell footprint's interaction is one loop with its
+phases written out: numba often increfs and decrefs (atomic calls) the arrays an inlined helper
+with branches receives, at each call (check the assembly for NRT_incref), which cost that loop
+about 40% of its time.
 
-Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops' move
-and placing in chunks of drops, and with the one-cell footprint the interaction in chunks of
-whole cells (each with its own key rows and scratch), each chunk writing its drops back while
+Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops'
+move and placing in chunks of drops, and with the one-cell footprint the interaction in chunks
+of whole cells (each with its own key rows and scratch), each chunk writing its drops back while
 they are in cache (then the chunks close up); every number belongs to one cell or one drop, so
 the result does not depend on the thread count.  The counting sort, the drain and the wider
 footprints' interaction stay serial.
@@ -482,8 +483,8 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
     nout = 0
     tf = thickness.reshape(-1)
     for i in prange(n):
-        if i + _AHEAD < n:                   # the gradient stencil's rows of a drop ahead
-            ca = _cell_of(pos[i + _AHEAD, 0], pos[i + _AHEAD, 1], nx, ny)
+        if i + _AHEAD < n and moving[i + _AHEAD]:   # the gradient stencil's rows of a
+            ca = _cell_of(pos[i + _AHEAD, 0], pos[i + _AHEAD, 1], nx, ny)   # moving drop ahead
             prefetch(h, max(ca - nx - 1, 0))
             prefetch(h, ca - 1 if ca > 0 else 0)
             prefetch(h, min(ca + nx - 1, h.size - 1))
