@@ -6,7 +6,7 @@ drop, ~250 ns on this machine).  Both paths keep the drops in cell order (the or
 returns, :meth:`particles.Drops.in_cell_order`), so here each step is one compiled call that
 walks the grid and the drops front to back: the drops are moved (read from the caller's
 arrays in their order: the last step's cell order, plus any drops appended since), placed in
-their new cell order into a packed buffer (one 64-byte float row and one 32-byte int row per
+their new cell order into a packed buffer (one 64-byte float row and one 20-byte int row per
 drop; a counting sort, skipped when no drop left the grid or now sits before its
 predecessor's cell; a drop at rest is packed there straight from the caller's arrays),
 interact there, and the survivors are written back into the caller's arrays front to back.
@@ -68,10 +68,11 @@ _ATTR = "_drop_kernel_work"
 _MIN_CHUNK = 2048          # drops per thread below which the interaction runs on fewer threads
 _AHEAD = 8                 # occupied cells (interaction) / drops (move) whose lines are prefetched
 
-# a drop's packed rows: floats (64 bytes) and int32s (32 bytes; KIND..AGE are the Drops fields,
-# CELL / TOP / OUT per-step scratch)
+# a drop's packed rows: floats (64 bytes) and int32s (20 bytes; KIND..AGE are the Drops fields,
+# CELL / TOP per-step scratch)
 X, Y, VX, VY, VOL, SED, SPD, DH = range(8)
-KIND, MOV, AGE, CELL, TOP, OUT = range(6)
+KIND, MOV, AGE, CELL, TOP = range(5)
+_NF, _NI = 8, 5
 
 
 class Work:
@@ -100,10 +101,10 @@ class Work:
             return
         self.cap = max(n, 2 * self.cap)
         self.pcap = self.cap * max(k, 4)
-        self.fa = np.empty((self.cap, 8))              # packed drops, sorted by start cell
-        self.ia = np.empty((self.cap, 8), np.int32)
-        self.fb = np.empty((self.cap, 8))              # packed drops, sorted by end cell
-        self.ib = np.empty((self.cap, 8), np.int32)
+        self.fa = np.empty((self.cap, _NF))              # packed drops, sorted by start cell
+        self.ia = np.empty((self.cap, _NI), np.int32)
+        self.fb = np.empty((self.cap, _NF))              # packed drops, sorted by end cell
+        self.ib = np.empty((self.cap, _NI), np.int32)
         self.rk = np.empty((self.cap, 2), np.int32)    # per drop index: sort key, slot
         self.starts = np.empty(self.cap + 1, np.int32)  # per occupied cell: its first drop
         self.ent = np.empty((self.cap + 1, 4), np.int64)  # per entry: drop, first pair, layer, key
@@ -353,8 +354,9 @@ def _counting_sort(key, n, nb, counts, slot):
 
 @njit(cache=True, nogil=True, inline="always")
 def _copy_row(F, I, o, G, J, j):
-    for q in range(8):
+    for q in range(_NF):
         G[j, q] = F[o, q]
+    for q in range(_NI):
         J[j, q] = I[o, q]
 
 
@@ -472,7 +474,7 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
     """particles.move of drop i of the caller's arrays (each drop on its own): its sort key
     ``key[i]`` (with ``by_cell`` the end cell, else 0; -1 for a drop that left the grid); a
     moving drop's new state into packed row i (new position, velocity, speed, dh, the end cell
-    CELL, or the start cell for a drop that left, marked OUT).  A drop at rest keeps its state,
+    CELL, or the start cell for a drop that left).  A drop at rest keeps its state,
     so its row is not written here: ``_place`` packs it straight into its sorted row (most
     drops rest, and each row written and read again costs memory traffic).  Returns how many
     left."""
@@ -505,7 +507,6 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
         I[i, KIND] = kind[i]
         I[i, MOV] = 1
         I[i, AGE] = age[i]
-        I[i, OUT] = 0
         c, fu, fv = _corners(x, y, nx, ny)
         ci = c % nx
         cj = c // nx
@@ -565,7 +566,6 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
         I[i, MOV] = 0 if stop else 1
         F[i, SPD] = 0.0 if stop else spd
         if nxp < 0 or nxp >= nx or nyp < 0 or nyp >= ny:
-            I[i, OUT] = 1
             I[i, CELL] = cc
             key[i] = -1
             nout += 1
@@ -603,7 +603,6 @@ def _place(F, I, key, slot, placed, pos, vel, volume, sediment, kind, moving, ag
         J[r, MOV] = 0
         J[r, AGE] = age[i]
         J[r, CELL] = _cell_of(pos[i, 0], pos[i, 1], nx, ny)
-        J[r, OUT] = 0
 
 
 @njit(cache=True, nogil=True)
