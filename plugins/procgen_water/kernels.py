@@ -32,11 +32,11 @@ footprint, whether drops have a sediment capacity and the layer count are tuple-
 numba compiles each combination on its own, the others' branches vanish from the interaction (a
 third faster) and the layer loops unroll; the interaction walks a list of the occupied cells'
 first drops and prefetches (procgen.prefetch) the grid lines of the cell ``_AHEAD`` cells on,
-the move those of the drop ``_AHEAD`` drops on if it moves: the occupied cells are sorted but sparse, a
-pattern the hardware does not guess.  The one-cell footprint's interaction is one loop with its
-phases written out: numba often increfs and decrefs (atomic calls) the arrays an inlined helper
-with branches receives, at each call (check the assembly for NRT_incref), which cost that loop
-about 40% of its time.
+the move those of the drop ``_AHEAD`` drops on if it moves: the occupied cells are sorted but
+sparse, a pattern the hardware does not guess.  The one-cell footprint's interaction is one loop
+with its phases written out: numba often increfs and decrefs (atomic calls) the arrays an
+inlined helper with branches receives, at each call (check the assembly for NRT_incref), which
+cost that loop about 40% of its time.
 
 Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops'
 move and placing in chunks of drops, and with the one-cell footprint the interaction in chunks
