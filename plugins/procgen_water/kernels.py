@@ -1117,12 +1117,12 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         e = hi + 1 if mode == 0 else ent.shape[0]     # scratch of the other footprints: all of it
         q = hi + 1 if mode == 0 else pairs.shape[0]
         kept[t] = _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate,
-                               capacity, erosion_rate, threshold, absorbs, erodible, fb, ib,
-                               speed_ref, cap_k, min_slope, deposition_rate, max_concentration,
-                               erode_stabilised, max_age, fade, fptag, captag, oy, ox, ow, sk,
-                               cell_sk[t], stamps, h, ent[lo:e], pairs[lo:q], pkey[lo:q],
-                               touched[lo:q], dtouched[lo:q], starts, chunks[t], chunks[t + 1],
-                               evaporated, evaporation, ltag, out)
+                            capacity, erosion_rate, threshold, absorbs, erodible, fb, ib,
+                            speed_ref, cap_k, min_slope, deposition_rate, max_concentration,
+                            erode_stabilised, max_age, fade, fptag, captag, oy, ox, ow, sk,
+                            cell_sk[t], stamps, h, ent[lo:e], pairs[lo:q], pkey[lo:q],
+                            touched[lo:q], dtouched[lo:q], starts, chunks[t], chunks[t + 1],
+                            evaporated, evaporation, ltag, out)
     # --- the drops with water, in end-cell order, front to back in the caller's arrays: with the
     # one-cell footprint each chunk's are moved down to close the gaps (the empty drops of the
     # chunks before: few); else unpacked in sorted order ---------------------------------------
