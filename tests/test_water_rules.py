@@ -10,7 +10,7 @@ import pytest
 from PIL import Image
 
 from procgen import RecipeError, run
-from procgen.recipes import load_recipe
+from procgen.recipes import check_recipe, load_recipe
 
 SMALL = [
     "steps.surface.params.nx=40", "steps.surface.params.ny=40", "steps.rain.params.drops=3000",
@@ -102,3 +102,31 @@ def test_unknown_layer_in_corrosion_is_a_one_line_input_error(host, tmp_path):
                                           r"named 'coper' \(did you mean 'copper'\?\)"):
         load_recipe("terrain/plate-2-1", host, ["steps.0.params.nx=16", "steps.0.params.ny=16",
                                                 'steps.2.params.consume=["coper"]', "steps.2.iterations=2"])
+
+
+def test_frames_show_the_state_of_their_iteration(host, tmp_path):
+    """water.drops writes its derived fields only when someone looks (a frame, the end): a frame
+    at iteration 3 of 6 must equal the final fields of the same run stopped at 3."""
+    def recipe(iterations):
+        return check_recipe({"steps": [
+            {"rule": "water.surface", "params": {"nx": 30, "ny": 24}},
+            {"rule": "water.drops", "iterations": iterations,
+             "params": {"drops": 400, "rain": 50, "evaporation": 0.01},
+             "frames": {"every": 3, "domain": "terrain", "format": "npy",
+                        "options": {"field": "water__depth"}}}],
+            "outputs": [{"domain": "terrain", "format": "npy", "file": "depth.npy",
+                         "options": {"field": "water__depth"}},
+                        {"domain": "terrain", "format": "npy", "file": "height.npy"}]}, host)
+    long_run, short_run = tmp_path / "six", tmp_path / "three"
+    res = run(recipe(6), host, seed=4, out_dir=long_run, progress=False)
+    run(recipe(3), host, seed=4, out_dir=short_run, progress=False)
+    frames = sorted(f for f in res.files if f.startswith("frames/") and f.endswith(".npy"))
+    assert len(frames) == 2
+    at3 = np.load(long_run / frames[0])
+    assert at3.any() and np.array_equal(at3, np.load(short_run / "depth.npy"))
+    assert not np.array_equal(np.load(long_run / frames[1]), at3)
+    # the end state is published too: the final height is base + layers after the last step
+    g = res.state.get("terrain")
+    top = g["surface__base"] + np.asarray(g["layers__thickness"]).sum(axis=-1)
+    assert np.allclose(np.load(long_run / "height.npy"), np.flipud(top))     # (north-up rows)
+    assert res.state.get("drops").n_points > 0

@@ -116,8 +116,12 @@ class WaterDrops(RuleBase):
     A batch of particles per step (thesis 2.4.2): gravity, friction, roughness and adhesion move
     them; they wet the exposed layer up to its capacity, erode weak (saturated) erodible layers
     in proportion to the liquid involved, carry one sediment type, deposit it when absorbed (or
-    beyond a sediment capacity), drain off the edges or stabilise.  Water and sediment ledgers
-    are checked every step and written to run.json.
+    beyond a sediment capacity), drain off the edges or stabilise.  A step only moves the drops;
+    the derived fields (heights, saturation, water depth), the drops' PointSet and the water and
+    sediment ledgers are brought up to date when someone looks: at each frame and at the end
+    (``publish``; at 512 x 512 they cost more than a compiled step).  The ledgers are cumulative,
+    so water or solid lost at any step still shows at every later check; their errors go to
+    run.json.
     """
 
     name: ClassVar[str] = "water.drops"
@@ -191,11 +195,17 @@ class WaterDrops(RuleBase):
                 w = np.asarray(self._g[self.weights_field], float)
                 w = w if w.ndim == 2 else w.sum(axis=-1)
             self._d = self._d.concat(P.emit(s, p, rng, n_new, self.emission, self.band, w))
-        before = float(s.held.sum()) + len(self._d)
+        had_water = len(self._d) > 0 or bool(s.held.any())
         self._d = P.step(s, self._d, p)
+        self._published = False
+        return len(self._d) > 0 or had_water
+
+    def publish(self, state: State) -> None:
+        if getattr(self, "_published", False):
+            return
         self._check()
         self._sync(state)
-        return bool(len(self._d) or before > 0)
+        self._published = True
 
     def _check(self) -> None:
         wl = P.water_ledger(self._s, self._d)
@@ -212,9 +222,7 @@ class WaterDrops(RuleBase):
                     at="cell", units="length", doc="standing/moving drop water per cell area")
 
     def finish(self, state: State) -> None:
-        if not hasattr(self, "_ledgers"):
-            self._check()
-            self._sync(state)
+        self.publish(state)
         wl, sl = self._ledgers
         key = f"step{state.step_index}.water"
         state.report(f"{key}.water_ledger", {k: round(v, 10) for k, v in wl.items()})
