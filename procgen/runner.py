@@ -76,6 +76,10 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
 
     Nothing is written when a step or an exporter fails; without ``out_dir`` nothing is exported
     at all (frames included). ``progress=None`` shows bars only on a terminal.
+
+    A step's iterations run back to back: between two of them only its own rule writes the
+    state (frames are exported after its ``publish``), so a rule may keep caches across its
+    iterations.  ``on_step`` is called after every iteration to observe; it must not write.
     """
     seed = recipe.seed if seed is None else int(seed)
     show = sys.stderr.isatty() if progress is None else progress

@@ -22,7 +22,10 @@ cell, and the stable sort keeps them in drop order, so sorting by cell changes n
 footprints (a key hears drops of several cells) interact in drop order and are sorted by cell
 afterwards, as numpy's ``in_cell_order`` does.  The surface gradient is evaluated where needed
 from a start-of-step height buffer (``np.gradient``'s formulas).  The release of excess water
-runs first, as in ``particles.step``, in the pass that computes that height; with the one-cell
+runs first, as in ``particles.step``, in the pass that computes that height; when the caller
+says the step is ``continued`` (nothing else wrote the surface since this path's last step on
+it) and that step had the one-cell footprint, only the cells its drops were in are refreshed:
+elsewhere the layers did not change and the water only evaporated.  With the one-cell
 footprint a cell's water is final once its drops have interacted (absorption wets only a
 drop's own cell), so the cells without drops evaporate in a grid pass before the interaction
 and the drops' cells at the end of their interaction, while their rows are in cache.
@@ -92,6 +95,8 @@ class Work:
         self.kept = np.empty(threads + 1, np.int64)         # per thread: its drops with water
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
+        self.occupied = np.full(1, -1, np.int64)  # cells the last step's drops were in (-1: unknown)
+        self.current_at = -1                      # Surface.steps at which h is current
         self.cap = 0
         self.pcap = 0
         self.grow(1024, 1)
@@ -99,6 +104,7 @@ class Work:
     def grow(self, n: int, k: int) -> None:
         if n <= self.cap and n * k <= self.pcap:
             return
+        self.occupied[0] = -1                     # (the last step's cell list is in ib / starts)
         self.cap = max(n, 2 * self.cap)
         self.pcap = self.cap * max(k, 4)
         self.fa = np.empty((self.cap, _NF))              # packed drops, sorted by start cell
@@ -137,7 +143,7 @@ def bytes_per_cell(n_layers: int) -> int:
     return 32 * n_layers + 12
 
 
-def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
+def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
     """``particles.step`` on the compiled path (same arguments, same result)."""
     work = s.__dict__.get(_ATTR)
     if (work is None or work.h.size != s.ncell or work.sk.shape[0] != s.thickness.size
@@ -151,6 +157,7 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
     if np.any((d.sediment > 0) & (d.kind < 0)):     # (erosion sets a kind with the first sediment)
         raise AssertionError("a drop carrying sediment has no sediment kind")
     work.grow(n, k)
+    since = continued and work.current_at == s.steps and work.occupied[0] >= 0
     pos, vel = np.ascontiguousarray(d.pos), np.ascontiguousarray(d.vel)
     kind, moving, age = d.kind, d.moving, d.age
     volume, sediment = d.volume, d.sediment
@@ -170,7 +177,9 @@ def step(s: "P.Surface", d: "P.Drops", p) -> "P.Drops":
               ow.astype(np.float64), work.sk, work.cell_sk, work.stamps, work.h, work.counts,
               work.chunks, work.kept, min(numba.get_num_threads(), work.chunks.size - 1),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.starts, work.ent, work.pairs, work.pkey,
-              work.touched, work.dtouched, work.occs, work.bufs, (0,) * s.n_layers)
+              work.touched, work.dtouched, work.occs, work.bufs, (0,) * s.n_layers, since,
+              work.occupied)
+    work.current_at = s.steps + 1                 # (P.step counts this step once it returns)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
 
@@ -398,6 +407,33 @@ def _height_release(ny, nx, sp, base, thickness, held, capacity, evaporated, h, 
                             tot += ex
                     if tot > 0:
                         evaporated[i] += tot
+
+
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, I, starts, ncell,
+                          ltag):
+    """_height_release at the ``ncell`` cells the last step's drops were in (first drops
+    ``starts`` of its packed drops ``I``, in cell order), when nothing but that step wrote the
+    surface since: with the one-cell footprint a drop changes the layers and the water of its
+    own cell only, and elsewhere the water only evaporated (the excess stays 0), so every other
+    cell's height and water are as the last pass left them.  The same expressions in the same
+    order as _height_release, cell by cell (a distinct cell per k)."""
+    L = len(ltag)
+    a = sp * sp
+    for k in prange(ncell):
+        i = I[starts[k], CELL]
+        hc = base[i]
+        for l in range(L):
+            hc += thickness[i, l]
+        h[i] = hc
+        tot = 0.0
+        for l in range(L):
+            ex = max(held[i, l] - capacity[l] * thickness[i, l] * a, 0.0)
+            if ex > 0:
+                held[i, l] -= ex
+                tot += ex
+        if tot > 0:
+            evaporated[i] += tot
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
@@ -1064,7 +1100,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, fptag,
           captag, oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, kept, nth, min_chunk,
-          fa, ia, fb, ib, rk, starts, ent, pairs, pkey, touched, dtouched, occs, bufs, ltag):
+          fa, ia, fb, ib, rk, starts, ent, pairs, pkey, touched, dtouched, occs, bufs, ltag,
+          since, occupied):
     mode = len(fptag) - 1                         # compile-time constants (see _interact)
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
@@ -1073,7 +1110,12 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     tf = thickness.reshape(-1)
     hf = held.reshape(-1)
     df = deposit.reshape(-1)
-    _height_release(ny, nx, sp, base, thickness, held, capacity, evaporated, h, bufs, nth, ltag)
+    if since:                                     # only the last step's cells changed
+        _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, ib, starts,
+                              occupied[0], ltag)
+    else:
+        _height_release(ny, nx, sp, base, thickness, held, capacity, evaporated, h, bufs, nth,
+                        ltag)
     # --- move (reading the caller's arrays, in their order: the cell order of the last step
     # plus any drops appended since) into packed rows, drain -----------------------------------
     nout = _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
@@ -1151,6 +1193,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     if evaporation > 0 and mode != 0:
         _evaporate(ny, nx, sp, held, evaporated, h, evaporation, ib, starts, 0, occs, bufs, nth,
                    ltag)
+    occupied[0] = ncell if mode == 0 else -1     # (wider footprints change cells around drops)
     return m
 
 

@@ -81,6 +81,7 @@ class Surface:
     roughness: np.ndarray = field(default_factory=lambda: np.zeros(0))
     absorbs: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     erodible: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    steps: int = 0                    # step() calls on this surface (a cache knows if it is current)
 
     @property
     def ncell(self) -> int:
@@ -543,13 +544,23 @@ def evaporate(s: Surface, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray) -> No
     s.evaporated[wet] += total
 
 
-def step(s: Surface, d: Drops, p: "WaterDrops", accelerate: bool | None = None) -> Drops:
+def step(s: Surface, d: Drops, p: "WaterDrops", accelerate: bool | None = None,
+         continued: bool = False) -> Drops:
     """One time step: move, interact, evaporate; record moving-drop visits in ``path``.
     Returns the drops still on the grid with water, in cell order (:meth:`Drops.in_cell_order`).
-    ``accelerate``: the numba kernels of procgen_water.kernels (same result), see procgen.accel."""
+    ``accelerate``: the numba kernels of procgen_water.kernels (same result), see procgen.accel.
+    ``continued``: the caller's word that nothing but this function wrote ``s``'s base, layers,
+    held water or materials since its last call on ``s`` (a rule stepping its own iterations);
+    the compiled path then refreshes the height and releases excess water only where that
+    call's drops were (the same numbers).  The numpy path ignores it."""
     kern = kernels("procgen_water.kernels", accelerate, len(d), MIN_DROPS)
-    if kern is not None:
-        return kern.step(s, d, p)
+    d = kern.step(s, d, p, continued) if kern is not None else _step(s, d, p)
+    s.steps += 1
+    return d
+
+
+def _step(s: Surface, d: Drops, p: "WaterDrops") -> Drops:
+    """The numpy step (the reference)."""
     release_excess(s)
     h = s.height()
     gx, gy = surface_gradient(s, h)

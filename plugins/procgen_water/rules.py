@@ -196,7 +196,7 @@ class WaterDrops(RuleBase):
                 w = w if w.ndim == 2 else w.sum(axis=-1)
             self._d = self._d.concat(P.emit(s, p, rng, n_new, self.emission, self.band, w))
         had_water = len(self._d) > 0 or bool(s.held.any())
-        self._d = P.step(s, self._d, p)
+        self._d = P.step(s, self._d, p, continued=it > 0)      # (only this step writes s)
         self._published = False
         return len(self._d) > 0 or had_water
 
