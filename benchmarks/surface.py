@@ -15,8 +15,8 @@ same cells is timed in the same process, with the label agreement.
 
 Voronoi runs as the core's generic ``ca.voronoi`` kernel (procgen.ca.propagation) on the cells'
 CellGraph; ``ca.life`` (25/357, table reading) is timed on the same cells. The patina part
-times the attack/defence kernel alone and the whole ``layers.corrode`` rule (which also
-publishes its fields every step); with --baseline the previous version of this benchmark runs
+times the attack/defence kernel alone and the whole ``layers.corrode`` rule (which publishes its
+fields at frames and at the end: that once is timed apart); with --baseline the previous version of this benchmark runs
 after it under that interpreter, so both print the same figures in one run.
 
 ``--paths`` runs the ``ca.life`` rule (25/357, table reading, 100 steps) and ca.voronoi (to
@@ -202,7 +202,7 @@ def main() -> None:
           f"coverage {cov:.1%}")
     print(f"  {t_pat / 60:.2f} x the 60 s target, {1200 / t_pat:,.0f} x faster than the thesis (< 20 min)")
 
-    # -- the same through the layers.corrode rule (fields published every step) ---------------
+    # -- the same through the layers.corrode rule (fields published at the end) ---------------
     table = parse_materials(["copper", "patina"])
     state = State(seed=2)
     state.add_domain("cells", sc2)
@@ -226,13 +226,16 @@ def main() -> None:
         rule.step(state)
     t_rule = time.perf_counter() - t0
     cz.corrosion_step = kernel
+    t0 = time.perf_counter()
+    rule.finish(state)                               # the fields, published once
+    t_publish = time.perf_counter() - t0
     per = 1e9 / (n * args.steps)
     print(f"rule       : layers.corrode, {args.steps} steps in {t_rule:.2f} s "
           f"({n * args.steps / t_rule:,.0f} cell updates/s, {t_rule / t_pat:.2f} x the kernel alone), "
           f"coverage {np.mean(sc2['corrosion__state'] != cz.NORMAL):.1%}")
     print(f"  per cell-step {t_rule * per:.1f} ns = kernel {t_kernel[0] * per:.1f} + the rule's own work "
-          f"{(t_rule - t_kernel[0]) * per:.1f} ({(t_rule - t_kernel[0]) / args.steps * 1e3:.2f} ms per step: "
-          f"fields published at the changed cells)")
+          f"{(t_rule - t_kernel[0]) * per:.1f} ({(t_rule - t_kernel[0]) / args.steps * 1e3:.2f} ms per step); "
+          f"the fields published once at the end: {t_publish * 1e3:.1f} ms")
 
     # -- export: textured OBJ and GLB of the patinated cup -----------------------------------
     from procgen_surface.exporters import surface_glb, surface_obj

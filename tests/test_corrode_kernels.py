@@ -12,7 +12,8 @@ from procgen_layers.rules import Corrode
 
 from test_layers_corrode import fresh_state
 
-FIELDS = ("status", "consumable", "product", "age", "strong", "seeds_used", "attacks", "valid_neighbours")
+FIELDS = ("status", "consumable", "product", "age", "strong", "seeds_used", "attacks", "valid_neighbours",
+          "ledger")
 STATS = ("changed", "new_seeds", "newly_corroded", "new_holes", "attacks", "max_attacks_per_cell",
          "max_allowed_violation")
 
@@ -27,6 +28,8 @@ def test_compiled_corrosion_equals_numpy_corrosion(variant):
                   seeding="floor" if variant == "floor-seeding" else "binomial",
                   age_step=2.5 if variant == "fractional-age-step" else 12.0)   # f1 = 1 + age // 2.5
     w = cz.direction_weights(cz.gaussian_matrix(prm.sigma))
+    if variant != "plain":                              # the solid ledger, booked where cells thin
+        st.ledger, st.area = np.zeros(n), np.random.default_rng(5).uniform(0.5, 1.5, n)
     kw = {}
     if variant == "tilt-blocked":
         kw = {"edge_logw": rng.normal(0.0, 0.7, g.indices.size), "blocked": rng.random(n) < 0.1}
@@ -41,8 +44,11 @@ def test_compiled_corrosion_equals_numpy_corrosion(variant):
             assert getattr(ob, f) == getattr(oa, f), (f, it)
         np.testing.assert_array_equal(np.sort(ob.seed_cells), np.sort(oa.seed_cells))
         np.testing.assert_array_equal(ob.seed_cells, oa.seed_cells)
+        np.testing.assert_array_equal(np.sort(ob.newly_cells), oa.newly_cells)   # numpy: cell order
+        assert len(oa.newly_cells) == oa.newly_corroded
         seen += oa.attacks
     assert seen > 1000 and np.sum(a.status == cz.HOLE) > 0 and a.seeds_used > 0
+    assert a.ledger is None or (a.ledger != 0).sum() > 100
 
 
 def test_compiled_corrosion_same_on_one_and_two_threads():

@@ -149,23 +149,35 @@ def _grid_recipe(corrode: dict, layers=None, iterations=40):
                         **corrode}}]
 
 
-def _run(host, steps, seed=3, on_step=None):
+def _run(host, steps, seed=3, on_step=None, out_dir=None):
     from procgen.recipes import check_recipe
     from procgen.runner import run
 
-    return run(check_recipe({"steps": steps}, host), host, seed=seed, progress=False, on_step=on_step).state
+    return run(check_recipe({"steps": steps}, host), host, seed=seed, progress=False, on_step=on_step,
+               out_dir=out_dir).state
 
 
-def test_rule_on_a_grid_keeps_the_invariants_and_the_solid_ledger(host):
+def test_rule_on_a_grid_keeps_the_invariants_and_the_solid_ledger(host, tmp_path):
+    """Step by step: the state and the source ledger as the runner's observer reads them (the
+    rule keeps them current), the thickness from a frame of every step (published for it)."""
     seen = []
 
     def watch(state, rec):
         if rec.rule == "layers.corrode":
             g = state.get("terrain")
-            seen.append({k: np.array(g[k]) for k in ("corrosion__state", "layers__thickness", "layers__source")})
+            seen.append({k: np.array(g[k]) for k in ("corrosion__state", "layers__source")})
 
-    st = _run(host, _grid_recipe({}), on_step=watch)
+    steps = _grid_recipe({})
+    steps[-1]["frames"] = {"every": 1, "domain": "terrain", "format": "npy",
+                           "options": {"field": "layers__thickness"}}
+    st = _run(host, steps, on_step=watch, out_dir=tmp_path)
+    frames = sorted((tmp_path / "frames" / "step2").glob("frame_*.npy"))
+    assert len(frames) == len(seen) == 40
+    for s, f in zip(seen, frames):
+        s["layers__thickness"] = np.flipud(np.load(f))              # frames are north-up
     g = st.get("terrain")
+    for k in ("corrosion__state", "layers__thickness", "layers__source"):   # finish publishes the last
+        assert np.array_equal(g[k], seen[-1][k])
     weak = g["corrosion__weak"] > 0.5
     assert np.array_equal(g["corrosion__strong"], ~weak)                  # the weak map is the mask
     assert np.all(weak[g["corrosion__seeded"]])                           # seeds on weak cells only

@@ -14,7 +14,9 @@ States: NORMAL (0), CORRODED (1), HOLE (2, the thesis's NO_MORE_CELL).  Per sync
    > b0 + b1*(strong neighbours of the defender) + strong_bonus*[defender is strong]   (f2);
 4. every cell corroded at the start of the step loses k1 of consumable thickness (top layer
    first), gains k2 of product (oxide) capped at k3, and ages by one; it becomes a HOLE exactly
-   when its consumable thickness reaches <= 0.
+   when its consumable thickness reaches <= 0.  If the state keeps a ``ledger``, the step adds
+   each such cell's change of solid, (consumable + product) * area, to it there: the cells it
+   thins are the only ones whose solid changes, so a caller needs no pass of its own for it.
 
 The age function A is the step count since corrosion, i.e. proportional to the oxide thickness
 until the k3 cap (thesis: "A proportional to oxide thickness").
@@ -61,6 +63,8 @@ class CorrosionState:
     seeds_used: int = 0
     attacks: np.ndarray | None = None   # (n,) attacks made by each cell in the last step
     valid_neighbours: np.ndarray | None = None  # (n,) n_VC of each cell in the last step
+    ledger: np.ndarray | None = None    # (n,) float, cumulative solid change per cell (None: not kept)
+    area: np.ndarray | None = None      # (n,) cell areas weighting the ledger
 
 
 @dataclass
@@ -71,6 +75,9 @@ class StepStats:
     new_seeds: int = 0
     seed_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     newly_corroded: int = 0
+    #: the cells that corroded in this step, each once (numpy: in cell order; compiled: in the
+    #: order they are settled, seeds first), so a caller can date them without a pass of its own
+    newly_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     new_holes: int = 0
     attacks: int = 0
     max_attacks_per_cell: int = 0
@@ -148,27 +155,48 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm: "Corrode", rng: np
             + prm.noise * rng.random(len(a_rows))
         defence = prm.b0 + prm.b1 * strong_help[t_inv] + prm.strong_bonus * st.strong[a_tgt]
         new_corroded[a_tgt[attack > defence]] = True
-    # 4. corroded cells thin (top consumed layer first), oxidise (never above k3, never shrinking)
-    if corroded.any():
-        c = st.consumable[corroded]
+    # 4. corroded cells thin (top consumed layer first), oxidise (never above k3, never shrinking);
+    #    worked on their rows (one gather, one scatter per array)
+    thin = np.flatnonzero(corroded)
+    if len(thin):
+        c = st.consumable[thin]
+        p = st.product[thin]
+        before = layer_sum(c) if st.ledger is not None else None
         remove = np.full(len(c), prm.k1)
         for layer in range(c.shape[1] - 1, -1, -1):       # top layer first (few layers, not cells)
             take = np.minimum(c[:, layer], remove)
             c[:, layer] -= take
             remove -= take
-        st.consumable[corroded] = c
-        p = st.product[corroded]
-        st.product[corroded] = np.minimum(p + prm.k2, np.maximum(p, prm.k3))
-        st.age[corroded] += 1
-        gone = corroded & (st.consumable.sum(axis=1) <= 0)
-        st.consumable[gone] = 0.0
-        st.status[gone] = HOLE
+        gone = c.sum(axis=1) <= 0
+        c[gone] = 0.0
+        st.consumable[thin] = c
+        p1 = np.minimum(p + prm.k2, np.maximum(p, prm.k3))
+        st.product[thin] = p1
+        st.age[thin] += 1
+        st.status[thin[gone]] = HOLE
         out.new_holes = int(np.count_nonzero(gone))
+        if before is not None:
+            delta = layer_sum(c)                          # (c1 - c0 + p1 - p0) * area, in place
+            delta -= before
+            delta += p1
+            delta -= p
+            delta *= st.area[thin]
+            st.ledger[thin] += delta
     new_corroded &= open_
-    st.status[new_corroded] = CORRODED
-    out.newly_corroded = int(np.count_nonzero(new_corroded))
+    out.newly_cells = np.flatnonzero(new_corroded)
+    st.status[out.newly_cells] = CORRODED
+    out.newly_corroded = len(out.newly_cells)
     out.changed = int(np.count_nonzero(st.status != status0))
     return out
+
+
+def layer_sum(c: np.ndarray) -> np.ndarray:
+    """(m,) sums of the (m, L) layer thicknesses, added bottom layer first: the compiled
+    kernel's order for every L (numpy's own row sum is pairwise from 8 layers on)."""
+    s = c[:, 0].copy()
+    for layer in range(1, c.shape[1]):                # a few layers, not cells
+        s += c[:, layer]
+    return s
 
 
 def strong_mask(n: int, fraction: float, rng: np.random.Generator,

@@ -18,7 +18,9 @@ skipping words without a corroded cell) and, for the corroded cells only, whethe
 open (normal, metal left, not blocked; computed where read, so no open/status copy of the grid
 is written); it lists the corroded cells and the front per chunk of cells.  The state stays as
 it was at the start of the step until the attacks are judged (thinning, step 4, runs last, over
-the listed corroded cells), so the kernels read ``status`` and ``age`` directly.  The weak open
+the listed corroded cells, booking each one's change of solid in the state's ledger if it keeps
+one), so the kernels read ``status`` and ``age`` directly.  The settling pass lists the newly
+corroded cells as it marks them (``StepStats.newly_cells``).  The weak open
 pool is counted (per chunk) only in a step that draws seeds, and a seed is looked for in its
 chunk.  Buffers live on the graph: the per-cell ones are made once, the per-entry ones grow with
 the largest front seen (a step allocates nothing proportional to the domain;
@@ -63,6 +65,7 @@ class Work:
         self.eoff = np.empty(n + 1, np.int64)     # first entry of each front row (+ the end)
         self.coff = np.empty(n + 1, np.int64)     # first attack of each front row (+ the end)
         self.helpers = np.empty(n)
+        self.newly = np.empty(n, np.int64)        # the cells corroded in the step, as settled
         self.nfront = 0
         self.cleared = None                       # (attacks, valid_neighbours) zero but the last front
         self.fit(0)
@@ -130,10 +133,13 @@ def corrosion_step(graph: CellGraph, st: CorrosionState, prm, rng: np.random.Gen
               work.pick, work.helpers, work.noise, st.age, st.strong, work.chosen, work.hit, float(prm.a0),
               float(prm.a1), float(prm.a2), float(prm.noise), float(prm.b0), float(prm.b1),
               float(prm.strong_bonus))
-    newly = _pass("settle", _settle, work.indices, seeds, work.chosen, work.hit, nch, st.status)
+    newly = _pass("settle", _settle, work.indices, seeds, work.chosen, work.hit, nch, st.status, work.newly)
+    no = np.zeros(0)
+    ledger, area = (no, no) if st.ledger is None else (st.ledger, np.asarray(st.area, float))
     holes = _pass("thin", _thin, work.corr, work.counts, n, st.status, st.consumable, st.product, st.age,
-                  float(prm.k1), float(prm.k2), float(prm.k3))
+                  float(prm.k1), float(prm.k2), float(prm.k3), ledger, area)
     out.new_holes, out.newly_corroded, out.changed = int(holes), int(newly), int(holes + newly)
+    out.newly_cells = work.newly[:newly].copy()
     return out
 
 
@@ -396,26 +402,30 @@ def _judge(indptr, indices, status, front, eoff, coff, nfront, pick, helpers, no
 
 
 @njit(cache=True, nogil=True)
-def _settle(indices, seeds, chosen, hit, nch, status):
-    """Seeds and hit targets (all open) corrode, each counted once."""
+def _settle(indices, seeds, chosen, hit, nch, status, listed):
+    """Seeds and hit targets (all open) corrode, each counted once and listed in ``listed``."""
     newly = 0
     for s in seeds:
         if status[s] == NORMAL:
             status[s] = CORRODED
+            listed[newly] = s
             newly += 1
     for i in range(nch):
         if hit[i]:
             t = indices[chosen[i]]
             if status[t] == NORMAL:
                 status[t] = CORRODED
+                listed[newly] = t
                 newly += 1
     return newly
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _thin(corr, counts, n, status, consumable, product, age, k1, k2, k3):
+def _thin(corr, counts, n, status, consumable, product, age, k1, k2, k3, ledger, area):
     """Step 4 for the cells corroded at the start (the chunks' lists): they thin (top layer
-    first), oxidise, age and may become holes; returns the new holes."""
+    first), oxidise, age and may become holes; returns the new holes.  A non-empty ``ledger``
+    gets each cell's ((c1 - c0) + p1 - p0) * area, the numpy path's expression in its order
+    (layer sums bottom first, as :func:`corrosion.layer_sum`)."""
     nb = counts.shape[1]
     L = consumable.shape[1]
     holes = 0
@@ -423,6 +433,7 @@ def _thin(corr, counts, n, status, consumable, product, age, k1, k2, k3):
         c0 = b * n // nb
         for i in range(c0, c0 + counts[0, b]):
             c = corr[i]
+            before = _has_metal(consumable, c) if ledger.size else 0.0
             remove = k1
             for l in range(L - 1, -1, -1):
                 take = min(consumable[c, l], remove)
@@ -431,9 +442,13 @@ def _thin(corr, counts, n, status, consumable, product, age, k1, k2, k3):
             p = product[c]
             product[c] = min(p + k2, max(p, k3))
             age[c] += 1
-            if _has_metal(consumable, c) <= 0:
+            left = _has_metal(consumable, c)
+            if left <= 0:
                 for l in range(L):
                     consumable[c, l] = 0.0
+                left = _has_metal(consumable, c)
                 status[c] = HOLE
                 holes += 1
+            if ledger.size:
+                ledger[c] += (left - before + product[c] - p) * area[c]
     return holes

@@ -109,6 +109,15 @@ class Corrode(RuleBase):
     protects them (paint until water washes it away).  Patina on copper, tarnish on gold,
     fire (several consumed layers, product = char), mildew (k1 = 0).  A later step on the same
     cells resumes from the ``corrosion__*`` fields.
+
+    Fields during a run: ``corrosion__state`` / ``_age`` / ``_strong`` are the kernel's own
+    arrays, ``_seeded`` / ``_time`` are set at the few cells a step seeds or corrodes, and the
+    kernel adds each step's change of solid to ``layers__source`` where it thins (the same
+    per-step sum, each term computed as before, so the ledger is exact); these are current after
+    every step.  The thickness, ``cell__alive``, ``corrosion__map`` and the coverage curve are
+    copied from the kernel's state by :meth:`publish` (before a frame, and at the end): nothing
+    reads them between two iterations, and keeping them current cost the compiled path up to
+    half its step (512 x 512 cells).
     """
 
     name: ClassVar[str] = "layers.corrode"
@@ -246,16 +255,17 @@ class Corrode(RuleBase):
         self._seeded, self._when = seeded, when
         self._n0 = int(np.count_nonzero(status == cz.NORMAL)) + max(k, 0)
         self._touched = int(np.count_nonzero(status != cz.NORMAL))     # kept by each step from here
-        self._corroded = np.flatnonzero(status == cz.CORRODED)          # the cells the next step thins
+        self._n_corroded = int(np.count_nonzero(status == cz.CORRODED))  # kept by each step from here
         self._stats = {"new_seeds": max(k, 0), "max_attacks_per_cell": 0, "attack_limit_violations": 0}
         self._log = CoverageLog()
         self._log.add(self._changed_fraction(), max(k, 0) / max(n, 1))
         src = np.array(cell_values(dom, "layers__source"), float) if "layers__source" in dom else np.zeros(n)
         put_cell_values(dom, "layers__source", src, units="volume",
                         doc="solid made (+) or destroyed (-) in place, cumulative")
-        self._source = cell_values(dom, "layers__source")
+        self._st.ledger, self._st.area = cell_values(dom, "layers__source"), self._area   # booked in place
         self._write(dom)
-        state.add_domain(self.coverage, self._log.domain())
+        self._published = False
+        self.publish(state)
 
     def _strong(self, dom: Any, n: int, rng: np.random.Generator, stored: np.ndarray | None) -> np.ndarray:
         """Strong cells: recomputed from a field, else kept from an earlier step, else drawn."""
@@ -288,11 +298,10 @@ class Corrode(RuleBase):
         return float(self._touched - (len(self._st.status) - self._n0)) / max(self._n0, 1)
 
     def _write(self, dom: Any) -> None:
-        """Publish the whole kernel state as fields (state/age/strong share the kernel's arrays);
-        from then on :meth:`step` updates the published arrays in place, at the changed cells."""
+        """Make the fields: state/age/strong share the kernel's arrays and seeded/time the rule's,
+        so they stay current; cell__alive and the map are filled by :meth:`publish`."""
         st = self._st
-        self._t[:, self._cons] = st.consumable
-        self._t[:, self._prod] = st.product
+        n = len(st.status)
         for name, arr, units, doc in (
                 ("corrosion__state", st.status, "", "0 sound, 1 corroded, 2 hole"),
                 ("corrosion__age", st.age, "steps", "steps since corroded"),
@@ -300,44 +309,38 @@ class Corrode(RuleBase):
                 ("corrosion__seeded", self._seeded, "", "cell was a seed"),
                 ("corrosion__time", self._when, "steps", "iteration at which the cell corroded (-1 never)")):
             put_cell_values(dom, name, arr, units=units, doc=doc)
-        put_cell_values(dom, "cell__alive", st.status != cz.HOLE, doc="false on holes")
-        put_cell_values(dom, "corrosion__map", np.where(st.status > 0, 1.0 + st.status, 1.0 - st.strong),
-                        units="1", doc="0 strong, 1 weak, 2 corroded, 3 hole (plate 2.2 maps)")
+        put_cell_values(dom, "cell__alive", np.empty(n, bool), doc="false on holes")
+        put_cell_values(dom, "corrosion__map", np.empty(n), units="1",
+                        doc="0 strong, 1 weak, 2 corroded, 3 hole (plate 2.2 maps)")
         self._alive, self._map = cell_values(dom, "cell__alive"), cell_values(dom, "corrosion__map")
 
-    def step(self, state: State) -> bool:
-        """One kernel step, then the published fields updated at the cells it changed only.
+    def publish(self, state: State) -> None:
+        """Copy the kernel's state into the fields it does not share (the thickness of the
+        consumed and product layers, cell__alive, the map) and the coverage curve: whole-grid
+        copies, so made only when someone looks (a frame, the end), once per step at most."""
+        if self._published:
+            return
+        st = self._st
+        self._t[:, self._cons] = st.consumable
+        self._t[:, self._prod] = st.product
+        np.not_equal(st.status, cz.HOLE, out=self._alive)
+        np.copyto(self._map, np.where(st.status > 0, 1.0 + st.status, 1.0 - st.strong))
+        state.add_domain(self.coverage, self._log.domain())
+        self._published = True
 
-        Only the cells corroded at the start of a step thin, oxidise, age or become holes (the
-        kernel's step 4), and a normal cell can only become corroded; so the thickness, the
-        source and the holes are read and written at the start's corroded cells, and the newly
-        corroded cells are the corroded ones the map still shows below 2.  One scan of the status
-        per step lists the corroded cells for the next step; nothing else is a whole-grid pass
+    def step(self, state: State) -> bool:
+        """One kernel step, then only what it reports: the newly corroded cells are dated and
+        the seeds marked (a few cells), the counts kept; no whole-grid pass (the kernel books
+        the ledger; the rest waits for :meth:`publish`).  A normal cell can only corrode and a
+        corroded one only become a hole, so the corroded count is kept from the step's counts
         (tests/test_corrode_rule_fields.py checks every field against a recomputation).
         """
         st = self._st
-        idx = self._corroded
-        c0, p0 = st.consumable[idx].sum(axis=1), st.product[idx]
         out = cz.corrosion_step(self._graph, st, self, state.rng(), weights=self._weights,
                                 edge_logw=self._edge_logw, blocked=self._blocked)
-        c1, p1 = st.consumable[idx], st.product[idx]
-        delta = c1.sum(axis=1)                    # (c1 - c0 + p1 - p0) * area, in place
-        delta -= c0
-        delta += p1
-        delta -= p0
-        delta *= self._area[idx]
-        self._source[idx] += delta
-        for j, layer in enumerate(self._cons):    # a few layers, not cells
-            self._t[idx, layer] = c1[:, j]
-        self._t[idx, self._prod] = p1
-        holes = idx[st.status[idx] == cz.HOLE]
-        self._alive[holes] = False
-        self._map[holes] = 1.0 + cz.HOLE
-        corroded = self._corroded = np.flatnonzero(st.status == cz.CORRODED)
-        newly = corroded[self._map[corroded] < 1.0 + cz.CORRODED]
-        self._map[newly] = 1.0 + cz.CORRODED
-        self._when[newly] = self._t0 + state.iteration
-        self._touched += len(newly)
+        self._when[out.newly_cells] = self._t0 + state.iteration
+        self._touched += out.newly_corroded
+        self._n_corroded += out.newly_corroded - out.new_holes
         if out.new_seeds:
             self._seeded[out.seed_cells] = True
         s = self._stats
@@ -345,10 +348,11 @@ class Corrode(RuleBase):
         s["max_attacks_per_cell"] = max(s["max_attacks_per_cell"], out.max_attacks_per_cell)
         s["attack_limit_violations"] += out.max_allowed_violation
         self._log.add(self._changed_fraction(), out.changed / max(len(st.status), 1))
-        state.add_domain(self.coverage, self._log.domain())
-        return bool(out.changed or len(corroded))
+        self._published = False
+        return bool(out.changed or self._n_corroded)
 
     def finish(self, state: State) -> None:
+        self.publish(state)
         st = self._st
         key = f"{self.cells}.corrosion"
         self._log.report(state, key)
