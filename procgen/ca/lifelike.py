@@ -191,8 +191,9 @@ class LifeLike(StateAutomaton):
         self._run = None if kern is None else kern.LifeRun(
             self._graph, self._present, self._lut, self.age_mode, self._alive, self._ever, self._age)
         self._write(dom)
-        if self.birth_field:
-            self.birth_probability(dom)              # a missing or out-of-range field fails now
+        # read and checked once: a missing or out-of-range field fails now, and no other rule
+        # writes it between this rule's iterations (procgen.runner.run)
+        self._p = self.birth_probability(dom) if self.birth_field else None
 
     def _write(self, dom) -> None:
         put_cell_values(dom, self.field, self._alive, doc=f"live cells of {self._bs}")
@@ -202,17 +203,15 @@ class LifeLike(StateAutomaton):
         dom = state.get(self.cells)
         if self._run is not None:                    # compiled: one fused kernel, no temporaries
             run = self._run
-            p = None
-            if self.birth_field:
-                p = self.birth_probability(dom)
+            if self._p is not None:
                 state.rng().random(out=run.draws())
-            changed = run.step(p)
+            changed = run.step(self._p)
             self._alive, self._age = run.alive, run.age     # (run.ever: read at the end only)
             self._write(dom)
             return changed
         new = life_step(self._graph, self._alive, self._lut) & self._present
-        if self.birth_field:                         # a birth happens with probability p
-            new &= self._alive | (state.rng().random(len(new)) < self.birth_probability(dom))
+        if self._p is not None:                      # a birth happens with probability p
+            new &= self._alive | (state.rng().random(len(new)) < self._p)
         changed = bool(np.any(new != self._alive))
         self._ever |= new
         self._age = next_age(self._age, new, self._ever, self.age_mode)
