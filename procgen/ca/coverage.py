@@ -31,7 +31,8 @@ class CoverageLog:
         self._rows[k - 1] = (k - 1, self.cumulative[-1], self.per_step[-1])
 
     def domain(self) -> Polylines:
-        """The two curves; built from the kept rows (a rule publishes it after every step)."""
+        """The two curves, built from the kept rows: a copy of the whole history, so a rule
+        builds it when it publishes (frames, the end) rather than after every step."""
         k = len(self.cumulative)
         rows = self._rows[:k]
         return Polylines(np.concatenate([rows[:, :2], rows[:, ::2]]), [0, k, 2 * k], closed=False)

@@ -81,11 +81,6 @@ class VoronoiGrowth:
         self.frontier = np.union1d(rows_cells[self.labels[rows_cells] == 0], self._frontier_of(r))
         return int(len(r))
 
-    @property
-    def coverage(self) -> float:
-        valid = self.labels >= 0
-        return float(np.mean(self.labels[valid] > 0)) if valid.any() else 1.0
-
 
 @dataclass(kw_only=True)
 class VoronoiPropagation(CellAutomaton):
@@ -99,6 +94,10 @@ class VoronoiPropagation(CellAutomaton):
     the ideal circle of radius r cells (thesis plate 3.2: 87 % at r = 10, 99.9 % at r = 70) as
     ``{cells}.voronoi.completion_r{r}``: the fraction of the cells within r cell sizes of the
     seed, measured over the surface (:func:`procgen.ca.cells.cell_distances`), that carry a label.
+
+    A step touches only the frontier: the coverage is a running count of labelled cells (labels
+    only grow and the step returns how many it set), and the label field and the curve, which
+    only later rules, exporters and frames read, are written by :meth:`publish`.
     """
 
     example: ClassVar[tuple[dict, ...]] = (
@@ -143,10 +142,12 @@ class VoronoiPropagation(CellAutomaton):
             labels = place_seeds(len(present), self.seeds, state.rng(), present)
         labels[~present] = -1
         self._grow = VoronoiGrowth(graph, labels, self.p_diagonal)
+        self._cells = int(np.sum(labels >= 0))
+        self._labelled = int(np.sum(labels > 0))
         self._log = CoverageLog()
-        self._log.add(self._grow.coverage, int(np.sum(labels > 0)) / len(labels))
-        put_cell_values(dom, self.field, np.maximum(labels, 0), doc="Voronoi region")
-        state.add_domain(self.coverage, self._log.domain())
+        self._log.add(self._coverage(), self._labelled / len(labels))
+        self._published = False
+        self.publish(state)
         self._radius_cells = None
         if self.completion_radii:
             self._radius_cells = cell_distances(dom, int(np.argmax(labels > 0))) / cell_size(dom)
@@ -159,12 +160,26 @@ class VoronoiPropagation(CellAutomaton):
                          disc_completion(self._grow.labels > 0, self._radius_cells, r))
         if n_new == 0 and len(self._grow.frontier) == 0:
             return False                  # finished: keep the log as it is (cheap idle steps)
-        if n_new:
-            put_cell_values(state.get(self.cells), self.field, np.maximum(self._grow.labels, 0),
-                            doc="Voronoi region")
-        self._log.add(self._grow.coverage, n_new / len(self._grow.labels))
-        state.add_domain(self.coverage, self._log.domain())
+        self._labelled += n_new
+        self._log.add(self._coverage(), n_new / len(self._grow.labels))
+        self._published = False
         return n_new > 0
 
+    def _coverage(self) -> float:
+        """Share of the present cells labelled: the same double as ``np.mean(labels[valid] > 0)``
+        (numpy sums the bools in float64, exact below 2**53, then divides once by the count)."""
+        return self._labelled / self._cells if self._cells else 1.0
+
+    def publish(self, state: State) -> None:
+        """Write the labels into ``{field}`` and the curve into ``{coverage}`` if a step changed
+        them since the last time (the runner calls this before each frame; finish at the end)."""
+        if self._published:
+            return
+        put_cell_values(state.get(self.cells), self.field, np.maximum(self._grow.labels, 0),
+                        doc="Voronoi region")
+        state.add_domain(self.coverage, self._log.domain())
+        self._published = True
+
     def finish(self, state: State) -> None:
+        self.publish(state)
         self._log.report(state, self.cells + ".voronoi")
