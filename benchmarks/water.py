@@ -10,8 +10,9 @@ same process.  Prints drop-steps per second for both, their ratio, and absolute 
 RSS), one after the other: the numpy step (``accelerate=False``), the compiled step
 (procgen_water.kernels; numba import and kernel load/compile are timed apart, on a warm-up step)
 and the machine's limit: a trivial compiled kernel doing the least memory traffic a step needs,
-in the order that costs least (the compiled path's own order): one pass over the grid's
-base/thickness/held writing the height; the drops counting-sorted by cell (int32 slots); per
+in the order that costs least (the compiled path's own order): one pass over the grid, each
+cell's held water read and written back and its height read (evaporation's least traffic: a
+continued step needs no other full-grid pass); the drops counting-sorted by cell (int32 slots); per
 drop, in cell order, its state read and written back, the 4x4 cells of its gradient stencil
 and its cell's layers read and written back; no arithmetic to speak of.  Two rows: ``drops``
 on one thread, timed in CPU time (``time.process_time``: the machine is shared by several jobs
@@ -130,9 +131,9 @@ def path_child(a) -> None:
     if a.path == "limit":
         from procgen_water.kernels import bytes_per_cell
         run = _limit_kernel()
-        h = np.empty(s.ncell)
+        h = s.height()
         counts, order = np.empty(s.ncell + 1, np.int32), np.empty(n0, np.int32)
-        args = (s.base, s.thickness, s.held, h, d.pos, s.shape[0], s.shape[1], counts, order)
+        args = (s.thickness, s.held, h, d.pos, s.shape[0], s.shape[1], counts, order)
         run(*args)                                                                  # compile
         t0 = clock()
         for _ in range(a.steps):
@@ -172,14 +173,13 @@ def _limit_kernel():
     from numba import njit, prange
 
     @njit(cache=True, nogil=True, parallel=True)
-    def run(base, thickness, held, h, pos, ny, nx, counts, order):
+    def run(thickness, held, h, pos, ny, nx, counts, order):
         L = thickness.shape[1]
         n = pos.shape[0]
-        for c in prange(ny * nx):                # stream: base + layers + held -> height
-            v = base[c]
+        for c in prange(ny * nx):                # stream: held water and height -> held water
+            v = 0.0 * h[c]
             for l in range(L):
-                v += thickness[c, l] + held[c, l]
-            h[c] = v
+                held[c, l] += v
         counts[:] = 0                            # the drops by cell: a counting sort
         for i in range(n):
             counts[int(pos[i, 1]) * nx + int(pos[i, 0]) + 1] += 1
