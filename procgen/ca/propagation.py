@@ -41,7 +41,8 @@ def place_seeds(n_cells: int, n_seeds: int, rng: np.random.Generator,
 
 @dataclass
 class VoronoiGrowth:
-    """Synchronous label growth on a CellGraph; ``labels`` 0 = unlabelled, -1 = no cell (hole)."""
+    """Synchronous label growth on a CellGraph; ``labels`` 0 = unlabelled, -1 = no cell (hole).
+    The growth owns a copy of the labels it is given (both paths update that copy in place)."""
 
     graph: CellGraph
     labels: np.ndarray
@@ -49,6 +50,7 @@ class VoronoiGrowth:
     accelerate: bool | None = None     # numba kernel of procgen.ca.kernels (same labels), see procgen.accel
 
     def __post_init__(self) -> None:
+        self.labels = np.array(self.labels, np.int32)
         self.frontier = self._frontier_of(np.nonzero(self.labels > 0)[0])
 
     def _frontier_of(self, cells: np.ndarray) -> np.ndarray:
@@ -75,9 +77,7 @@ class VoronoiGrowth:
         diag = g.is_diagonal[e] if g.direction is not None else np.zeros(len(e), bool)
         ok = (lab > 0) & (~diag | (rng.random(len(e)) < self.p_diagonal))
         r, pick = pick_one_per_row(g.rows[e], ok, rng, g.n_cells)
-        new = self.labels.copy()
-        new[r] = lab[pick]
-        self.labels = new
+        self.labels[r] = lab[pick]                # (lab was read before: a synchronous step)
         self.frontier = np.union1d(rows_cells[self.labels[rows_cells] == 0], self._frontier_of(r))
         return int(len(r))
 
