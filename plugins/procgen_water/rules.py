@@ -184,6 +184,7 @@ class WaterDrops(RuleBase):
         self._baseline = float(g["sediment__baseline"].sum())
         self._max_err = {"water": 0.0, "sediment": 0.0}
         self._emitted_before = float(s.emitted.sum())
+        self._published = False
 
     def step(self, state: State) -> bool:
         s, p, it = self._s, self, state.iteration
@@ -201,7 +202,7 @@ class WaterDrops(RuleBase):
         return len(self._d) > 0 or had_water
 
     def publish(self, state: State) -> None:
-        if getattr(self, "_published", False):
+        if self._published:
             return
         self._check()
         self._sync(state)
