@@ -22,7 +22,9 @@ timed in wall time (``time.perf_counter``) beside the single-threaded numpy path
 a loaded machine makes wall times, and most of all 2-thread ones, long.  Each path runs twice,
 alternating, and keeps its faster child.  The table gives time per drop-step, the ratio, and
 the compiled path's distance from the limit; both paths' final thickness/held/drops are hashed
-to show they agree bit for bit (and with 2 threads as with one).
+to show they agree bit for bit (and with 2 threads as with one).  A third row, ``rule-2t``, runs
+the water.drops rule through procgen's runner (same sizes, a surface of its own draw): what a
+user's recipe spends per drop-step, the rule's own work and its one publish at the end included.
 Usage: python benchmarks/water.py [--steps 100] [--drops 50000] [--size 512] [--paths]
                                   [--baseline /work/venv-main/bin/python]
 With --baseline, the previous version of this benchmark runs after it under that interpreter
@@ -80,7 +82,8 @@ def main() -> None:
         return path_child(a)
     if a.paths:
         text = f"drops {a.drops:,} on {a.size}^2 x 3 layers, {a.steps} steps (per drop-step)"
-        _paths.compare([("drops", text + ", 1 thread, CPU"), ("drops-2t", text + ", 2 threads, wall")],
+        _paths.compare([("drops", text + ", 1 thread, CPU"), ("drops-2t", text + ", 2 threads, wall"),
+                        ("rule-2t", "the water.drops rule in a recipe, the same sizes, 2 threads, wall")],
                        ["--steps", str(a.steps), "--drops", str(a.drops), "--size", str(a.size)])
         return
     s, d, p = build(a.size, a.drops)
@@ -128,6 +131,8 @@ def path_child(a) -> None:
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     s, d, p = build(a.size, a.drops)
     n0, fig = len(d), {"threads": 1 if a.path == "numpy" else threads}
+    if a.part == "rule-2t" and a.path != "limit":
+        return rule_child(a, fig)
     if a.path == "limit":
         from procgen_water.kernels import bytes_per_cell
         run = _limit_kernel()
@@ -165,6 +170,53 @@ def path_child(a) -> None:
         fig["scratch_bytes_per_drop"] = work.bytes_per_drop
         fig["scratch_bytes_per_cell"] = round(work.grid_bytes / s.ncell)
     _paths.report(seconds=t / drop_steps, **fig)
+
+
+def rule_child(a, fig: dict) -> None:
+    """The ``rule-2t`` row: water.drops run by procgen's runner on a surface like ``build``'s
+    (its own fBm draw), so the time includes what the rule does around the step (emission,
+    the check of water left, the one publish at the end: ledgers, derived fields, drops domain)."""
+    import os
+    from procgen import run
+    from procgen.plugins import get_plugin_manager
+    from procgen.recipes import check_recipe
+    from procgen_water.rules import WaterDrops
+    accelerate = a.path == "compiled"
+    os.environ["PROCGEN_ACCELERATE"] = "1" if accelerate else "0"
+    if accelerate:
+        ws, wd, wp = build(32, 100, seed=2)
+        P.step(ws, wd, wp, accelerate=True)              # numba import + kernel load, untimed
+    layers = [{"preset": "stone", "thickness": 1.0, "noise": 0.1},
+              {"preset": "soil", "thickness": 0.4, "noise": 0.1, "coverage": 0.5},
+              {"preset": "patina", "thickness": 0.3, "n_spots": 12, "spot_radius": 0.05}]
+    host = get_plugin_manager()
+    recipe = check_recipe({"steps": [
+        {"rule": "water.surface", "params": {"nx": a.size, "ny": a.size, "base": "fbm", "base_amplitude": 20.0,
+                                             "tilt_deg": 10.0, "layers": layers}},
+        {"rule": "water.drops", "iterations": a.steps,
+         "params": {"drops": a.drops, "evaporation": 0.005, "adhesion": 0.1}}]}, host)
+    step, drop_steps, finish_s = P.step, [0], [0.0]
+    finish = WaterDrops.finish
+
+    def counted(s_, d_, *args, **kw):
+        drop_steps[0] += len(d_)
+        return step(s_, d_, *args, **kw)
+
+    def timed_finish(rule, state):
+        t0 = time.perf_counter()
+        finish(rule, state)
+        finish_s[0] += time.perf_counter() - t0
+
+    P.step, WaterDrops.finish = counted, timed_finish
+    res = run(recipe, host, seed=1, progress=False)
+    t = sum(r.seconds for r in res.state.records if r.rule == "water.drops") + finish_s[0]
+    g = res.state.get("terrain")
+    digest = hashlib.sha256()
+    for name in ("layers__thickness", "water__held", "sediment__deposit"):
+        digest.update(np.ascontiguousarray(g[name]).tobytes())
+    fig.update(hash=digest.hexdigest()[:16], drop_steps=drop_steps[0], ms_per_step=round(t / a.steps * 1e3, 1),
+               publish_ms=round(finish_s[0] * 1e3, 1))
+    _paths.report(seconds=t / drop_steps[0], **fig)
 
 
 def _limit_kernel():
