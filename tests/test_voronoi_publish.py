@@ -16,6 +16,7 @@ from procgen.ca.propagation import VoronoiPropagation
 from procgen.recipes import check_recipe
 from procgen.runner import run
 
+
 def _accelerate(value: str, monkeypatch: pytest.MonkeyPatch) -> None:
     if value == "1":
         pytest.importorskip("numba")
