@@ -399,14 +399,20 @@ def _height_release(ny, nx, sp, base, thickness, held, capacity, evaporated, h, 
                 over |= hf[k] - capv[k] * tf[k] * a > 0
             if over:
                 for i in range(r0, r0 + nx):
-                    tot = 0.0
-                    for l in range(L):
-                        ex = max(held[i, l] - capacity[l] * thickness[i, l] * a, 0.0)
-                        if ex > 0:
-                            held[i, l] -= ex
-                            tot += ex
-                    if tot > 0:
-                        evaporated[i] += tot
+                    _release_at(i, thickness, held, capacity, evaporated, a, L)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _release_at(i, thickness, held, capacity, evaporated, a, L):
+    """particles.release_excess at cell i (cell area a, L layers)."""
+    tot = 0.0
+    for l in range(L):
+        ex = max(held[i, l] - capacity[l] * thickness[i, l] * a, 0.0)
+        if ex > 0:
+            held[i, l] -= ex
+            tot += ex
+    if tot > 0:
+        evaporated[i] += tot
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
@@ -426,14 +432,7 @@ def _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, I,
         for l in range(L):
             hc += thickness[i, l]
         h[i] = hc
-        tot = 0.0
-        for l in range(L):
-            ex = max(held[i, l] - capacity[l] * thickness[i, l] * a, 0.0)
-            if ex > 0:
-                held[i, l] -= ex
-                tot += ex
-        if tot > 0:
-            evaporated[i] += tot
+        _release_at(i, thickness, held, capacity, evaporated, a, L)
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
