@@ -113,6 +113,7 @@ class Work:
         self.ib = np.empty((self.cap, _NI), np.int32)
         self.rk = np.empty((self.cap, 2), np.int32)    # per drop index: sort key, slot
         self.starts = np.empty(self.cap + 1, np.int32)  # per occupied cell: its first drop
+        self.obud = np.empty(self.cap)                  # per occupied cell: its evaporation budget
         self.ent = np.empty((self.cap + 1, 4), np.int64)  # per entry: drop, first pair, layer, key
         self.pairs = np.empty((self.pcap, 2))          # per pair: footprint weight, demand
         self.pkey = np.empty(self.pcap, np.int64)      # per pair: cell, then key
@@ -120,7 +121,7 @@ class Work:
         self.dtouched = np.empty(self.pcap, np.int64)
 
     def _drop_arrays(self):
-        return (self.fa, self.ia, self.fb, self.ib, self.rk, self.starts, self.ent)
+        return (self.fa, self.ia, self.fb, self.ib, self.rk, self.starts, self.obud, self.ent)
 
     @property
     def grid_bytes(self) -> int:
@@ -178,7 +179,7 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
               work.chunks, work.kept, min(numba.get_num_threads(), work.chunks.size - 1),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.starts, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched, work.occs, work.bufs, (0,) * s.n_layers, since,
-              work.occupied)
+              work.occupied, work.obud)
     work.current_at = s.steps + 1                 # (P.step counts this step once it returns)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
@@ -437,7 +438,7 @@ def _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, I,
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def _evaporate(ny, nx, sp, held, evaporated, h, evaporation, I, starts, nocc, occs, bufs, nt,
-               ltag):
+               ltag, obud):
     """particles.evaporate at the cells that hold no drop (the ``nocc`` occupied cells, first
     drops ``starts`` of the packed drops ``I`` in cell order: with the one-cell footprint
     absorption wets only a drop's own cell, so the others' water is final here; the
@@ -499,8 +500,11 @@ def _evaporate(ny, nx, sp, held, evaporated, h, evaporation, I, starts, nocc, oc
                     budget -= e
                     total += e
                 ev[i] += total
-            for k in range(q0, q):
-                occ[I[starts[k], CELL] - r0] = 0
+            for k in range(q0, q):              # the occupied cells: their budgets for the
+                c = I[starts[k], CELL]              # interaction (this row's heights are in cache)
+                occ[c - r0] = 0
+                gx, gy = _grad_ij(h, c, c - r0, j, nx, ny, sp)
+                obud[k] = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -674,18 +678,20 @@ def _cell_starts(I, n, starts):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _prefetch_cell(c, nx, L, tf, hf, df, path, evaporated, h):
+def _prefetch_cell(c, nx, L, tf, hf, df, path, evaporated, h, slope):
     """Prefetch the lines the interaction reads of cell c (its layers, held water, deposit, path
-    and evaporation ledger, the gradient's three height rows).  A cell's L layers may span two
-    lines (with L = 3, one cell in four): both ends are prefetched (a quarter less time)."""
+    and evaporation ledger; with ``slope``, the gradient's three height rows).  A cell's L
+    layers may span two lines (with L = 3, one cell in four): both ends are prefetched (a
+    quarter less time)."""
     for r in (tf, hf, df):
         prefetch(r, c * L)
         prefetch(r, c * L + L - 1)
     prefetch(path, c)
     prefetch(evaporated, c)
-    prefetch(h, c)
-    prefetch(h, max(c - nx, 0))
-    prefetch(h, min(c + nx, h.size - 1))
+    if slope:
+        prefetch(h, c)
+        prefetch(h, max(c - nx, 0))
+        prefetch(h, min(c + nx, h.size - 1))
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -732,7 +738,7 @@ def _cell_laid(c0, L, a, tf, df, rows):
 def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, capacity,
                     erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
                     deposition_rate, max_concentration, erode_stabilised, max_age, fade, captag,
-                    rows, h, dem, lay, starts, k0, k1, evaporated, evaporation, ltag, out):
+                    rows, h, dem, lay, starts, k0, k1, evaporated, evaporation, ltag, out, obud):
     """_interact with the one-cell footprint, cell by cell: a key (cell, layer) hears only its
     own cell's drops, in drop order, so no number changes.  All drops of a cell absorb into one
     key (c0, top0): its demand sum is a scalar, its capacity, held water and saturation the same
@@ -749,7 +755,7 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
     L = len(ltag)
     a = sp * sp
     for k in range(k0, min(k0 + _AHEAD, k1)):
-        _prefetch_cell(I[starts[k], CELL], nx, L, tf, hf, df, path, evaporated, h)
+        _prefetch_cell(I[starts[k], CELL], nx, L, tf, hf, df, path, evaporated, h, capacity_on)
     Ff = F.reshape(-1)
     If = I.reshape(-1)
     pos, vel, volume, sediment, kind, moving, age = out
@@ -759,7 +765,7 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
         hi = starts[k + 1]
         if k + _AHEAD < k1:             # that cell's lines, and its first drop's packed rows
             o = starts[k + _AHEAD]
-            _prefetch_cell(I[o, CELL], nx, L, tf, hf, df, path, evaporated, h)
+            _prefetch_cell(I[o, CELL], nx, L, tf, hf, df, path, evaporated, h, capacity_on)
             prefetch(Ff, o * F.shape[1])
             prefetch(If, o * I.shape[1])
         c0 = I[lo, CELL]
@@ -896,13 +902,12 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
                 laid = True
         if laid:
             _cell_laid(c0, L, a, tf, df, rows)
-        if evaporation > 0:     # the cell's water is final: evaporate it now (written out: a
-            wet = False         # helper with an early return costs numba's increfs)
-            for l in range(L):
+        if evaporation > 0:     # the cell's water is final: evaporate it now, with the budget
+            wet = False         # the grid pass left (written out: a helper with an early return
+            for l in range(L):  # costs numba's increfs)
                 wet |= held[c0, l] != 0
             if wet:
-                gx, gy = _grad(h, c0, nx, ny, sp)
-                _evaporate_at(c0, gx, gy, sp, held, evaporated, evaporation, L)
+                _evaporate_at(c0, obud[k], held, evaporated, L)
         for i in range(lo, hi):     # (branch-free: an empty drop is overwritten by the next)
             _unpack(F, I, i, j, pos, vel, volume, sediment, kind, moving, age)
             j += F[i, VOL] > 0
@@ -914,7 +919,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
               erosion_rate, threshold, absorbs, erodible, F, I, speed_ref, cap_k, min_slope,
               deposition_rate, max_concentration, erode_stabilised, max_age, fade, fptag, captag,
               oy, ox, ow, sk, cell_sk, stamps, h, ent, pairs, pkey, touched, dtouched, starts, k0,
-              k1, evaporated, evaporation, ltag, out):
+              k1, evaporated, evaporation, ltag, out, obud):
     """particles.interact (and the path count) over the groups k0..k1-1 of packed drops, group k
     being drops starts[k]..starts[k + 1] - 1.  With the one-cell footprint a group is an
     occupied cell's drops (in drop order): _interact_cells, on the rows of ``cell_sk``.
@@ -928,7 +933,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
                                capacity, erosion_rate, threshold, absorbs, erodible, F, I,
                                speed_ref, cap_k, min_slope, deposition_rate, max_concentration,
                                erode_stabilised, max_age, fade, captag, cell_sk, h, pairs[:, 1],
-                               touched, starts, k0, k1, evaporated, evaporation, ltag, out)
+                               touched, starts, k0, k1, evaporated, evaporation, ltag, out, obud)
     L = thickness.shape[1]
     a = sp * sp
     fc = pkey
@@ -1100,7 +1105,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, fptag,
           captag, oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, kept, nth, min_chunk,
           fa, ia, fb, ib, rk, starts, ent, pairs, pkey, touched, dtouched, occs, bufs, ltag,
-          since, occupied):
+          since, occupied, obud):
     mode = len(fptag) - 1                         # compile-time constants (see _interact)
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
@@ -1143,7 +1148,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     # --- with the one-cell footprint, evaporate the cells without drops ------------------------
     if mode == 0 and evaporation > 0:
         _evaporate(ny, nx, sp, held, evaporated, h, evaporation, ib, starts, ncell, occs, bufs, nth,
-                   ltag)
+                   ltag, obud)
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread, each
     # writing its drops with water back into the caller's arrays from its first drop on -------
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
@@ -1163,7 +1168,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                             erode_stabilised, max_age, fade, fptag, captag, oy, ox, ow, sk,
                             cell_sk[t], stamps, h, ent[lo:e], pairs[lo:q], pkey[lo:q],
                             touched[lo:q], dtouched[lo:q], starts, chunks[t], chunks[t + 1],
-                            evaporated, evaporation, ltag, out)
+                            evaporated, evaporation, ltag, out, obud)
     # --- the drops with water, in end-cell order, front to back in the caller's arrays: with the
     # one-cell footprint each chunk's are moved down to close the gaps (the empty drops of the
     # chunks before: few); else unpacked in sorted order ---------------------------------------
@@ -1191,15 +1196,14 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                 _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
     if evaporation > 0 and mode != 0:
         _evaporate(ny, nx, sp, held, evaporated, h, evaporation, ib, starts, 0, occs, bufs, nth,
-                   ltag)
+                   ltag, obud)
     occupied[0] = ncell if mode == 0 else -1     # (wider footprints change cells around drops)
     return m
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _evaporate_at(c, gx, gy, sp, held, evaporated, evaporation, L):
-    """particles.evaporate at wet cell c (of L layers) whose surface gradient is (gx, gy)."""
-    budget = evaporation * ((sp * sp) * math.sqrt(1.0 + gx * gx + gy * gy))
+def _evaporate_at(c, budget, held, evaporated, L):
+    """particles.evaporate at wet cell c (of L layers) with its budget (_evaporate's)."""
     total = 0.0
     for l in range(L - 1, -1, -1):
         e = min(held[c, l], budget)
