@@ -125,8 +125,8 @@ def path_child(a) -> None:
     threads = 2 if a.part.endswith("-2t") else 1
     clock = time.perf_counter if threads > 1 else time.process_time
     if a.path != "numpy":                 # (the numpy child never imports numba: its RSS)
-        import os
-        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")     # as procgen.accel does
+        from procgen.accel import wait_policy
+        wait_policy()                     # (as the kernel modules' loading does)
         import numba
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     s, d, p = build(a.size, a.drops)

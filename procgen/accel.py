@@ -15,10 +15,10 @@ runs stay on numpy).
 
 Threads: the kernels that update every cell independently run in parallel over numba's
 threads (``NUMBA_NUM_THREADS``, default all cores; the result does not depend on the count).
-On a shared or oversubscribed machine, busy-waiting OpenMP threads steal the time of the
-others, so unless the user set it, ``OMP_WAIT_POLICY`` is made ``PASSIVE`` (idle threads
-sleep) before the first kernel module loads, and local worker pools (gallery, sweep) give each
-worker process an equal share of the cores (:func:`share_cores`).
+Between two parallel regions numba's OpenMP threads wait; how is :func:`wait_policy`'s choice
+(a short spin, then sleep) unless the user set it, and local worker pools (gallery, sweep) give
+each worker process an equal share of the cores (:func:`share_cores`), so no process's threads
+wait for cores another one holds.
 """
 from __future__ import annotations
 
@@ -32,6 +32,8 @@ from .errors import InputError
 
 ENV = "PROCGEN_ACCELERATE"
 
+SPIN_COUNT = 100_000
+"""GNU OpenMP's spins before an idle thread sleeps (:func:`wait_policy`)."""
 MIN_DROPS = 10_000
 """Drops from which ``accelerate=None`` takes the compiled water step."""
 MIN_CELLS = 100_000
@@ -74,9 +76,27 @@ def share_cores(processes: int) -> None:
     os.environ.setdefault("NUMBA_NUM_THREADS", str(share))
 
 
+def wait_policy() -> None:
+    """How numba's idle OpenMP threads wait for the next parallel region, unless the user said
+    (``OMP_WAIT_POLICY``, ``GOMP_SPINCOUNT``, ``KMP_BLOCKTIME``): they spin for about a
+    millisecond (GNU OpenMP: ``SPIN_COUNT`` spins; Intel's: 1 ms), then sleep.  Call before
+    numba's threads start (the first kernel module to load does).
+
+    Why: a compiled step runs several parallel regions with serial work between them (the water
+    step six, a sort between two).  On the 2-core virtual machine of benchmarks/ a region costs
+    2 us when its threads spin and 70-140 us when they sleep (their wake-up), which cost the
+    water step a sixth of its time while every idle thread slept at once
+    (``OMP_WAIT_POLICY=PASSIVE``).  Spinning without bound (``ACTIVE``) would take a core from
+    every other job for as long as the process lives; a millisecond bridges the gaps within and
+    between steps, and GNU OpenMP spins less by itself when it has more threads than cores."""
+    if "OMP_WAIT_POLICY" not in os.environ:
+        os.environ.setdefault("GOMP_SPINCOUNT", str(SPIN_COUNT))
+        os.environ.setdefault("KMP_BLOCKTIME", "1")
+
+
 @functools.cache
 def _load(module: str) -> ModuleType | None:
     if importlib.util.find_spec("numba") is None:
         return None
-    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    wait_policy()
     return importlib.import_module(module)
