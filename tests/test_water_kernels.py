@@ -153,3 +153,18 @@ def test_accelerate_true_without_numba_is_one_line_error(monkeypatch):
         P.step(s, d, p, accelerate=True)
     monkeypatch.setenv(A.ENV, "0")
     assert len(P.step(s, d, p)) > 0                         # the switch off: numpy
+
+
+def test_a_drop_with_sediment_but_no_kind_is_refused_before_any_write():
+    """Sediment is laid into its drop's kind layer, so such a drop (not made by a step: erosion
+    sets the kind with the first sediment) would lay into no layer; the compiled step says so
+    before it writes anything (the release of excess water included)."""
+    pytest.importorskip("numba")
+    s, d, p = CASES["thesis"]()
+    s.held[:] = 2 * s.thickness * s.capacity * s.cell_area   # water to release
+    d.sediment[len(d) // 2] = 0.1
+    d.kind[len(d) // 2] = -1
+    s0, d0 = copy.deepcopy(s), copy.deepcopy(d)
+    with pytest.raises(AssertionError, match="no sediment kind"):
+        P.step(s, d, p, accelerate=True)
+    _assert_same((s0, d0), (s, d))

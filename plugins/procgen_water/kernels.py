@@ -155,8 +155,6 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
     oy, ox, ow = P._disc_offsets(p.brush_radius) if fp == 2 else (np.zeros(1, np.int64),) * 2 + (np.ones(1),)
     k = ox.size if fp == 2 else (4 if fp == 1 else 1)
     n = len(d)
-    if np.any((d.sediment > 0) & (d.kind < 0)):     # (erosion sets a kind with the first sediment)
-        raise AssertionError("a drop carrying sediment has no sediment kind")
     work.grow(n, k)
     since = continued and work.current_at == s.steps and work.occupied[0] >= 0
     pos, vel = np.ascontiguousarray(d.pos), np.ascontiguousarray(d.vel)
@@ -180,6 +178,8 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.starts, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched, work.occs, work.bufs, (0,) * s.n_layers, since,
               work.occupied, work.obud)
+    if m < 0:                 # (checked before any write; erosion sets a kind with the first sediment)
+        raise AssertionError("a drop carrying sediment has no sediment kind")
     work.current_at = s.steps + 1                 # (P.step counts this step once it returns)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
@@ -1114,6 +1114,11 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     tf = thickness.reshape(-1)
     hf = held.reshape(-1)
     df = deposit.reshape(-1)
+    bad = 0
+    for i in prange(n0):
+        bad += (sediment[i] > 0) & (kind[i] < 0)
+    if bad:
+        return -1
     if since:                                     # only the last step's cells changed
         _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, ib, starts,
                               occupied[0], ltag)
