@@ -427,7 +427,16 @@ def _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, I,
     order as _height_release, cell by cell (a distinct cell per k)."""
     L = len(ltag)
     a = sp * sp
+    tf = thickness.reshape(-1)
+    hf = held.reshape(-1)
     for k in prange(ncell):
+        if k + _AHEAD < ncell:                   # (sorted but sparse cells: see _prefetch_cell)
+            c = I[starts[k + _AHEAD], CELL]
+            prefetch(base, c)
+            prefetch(h, c)
+            for r in (tf, hf):
+                prefetch(r, c * L)
+                prefetch(r, c * L + L - 1)
         i = I[starts[k], CELL]
         hc = base[i]
         for l in range(L):
