@@ -92,7 +92,7 @@ class Work:
         self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
         self.stamps = np.zeros(1)                           # sk's phase stamp
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
-        self.kept = np.empty(threads + 1, np.int64)         # per thread: its drops with water
+        self.kept = np.empty(threads + 1, np.int64)   # per thread: its drops with water; its sort band
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
         self.occupied = np.full(1, -1, np.int64)  # cells the last step's drops were in (-1: unknown)
@@ -345,21 +345,41 @@ def _unpack(F, I, o, j, pos, vel, volume, sediment, kind, moving, age):
     age[j] = I[o, AGE]
 
 
-@njit(cache=True, nogil=True)
-def _counting_sort(key, n, nb, counts, slot):
+@njit(cache=True, nogil=True, parallel=True)
+def _counting_sort(key, n, nb, counts, slot, nt, band):
     """slot[r] = rank of r when the r < n with key[r] >= 0 are sorted by key (< nb), then by r;
-    returns how many were placed."""
-    counts[:nb + 1] = 0
-    for r in range(n):
-        if key[r] >= 0:
-            counts[key[r] + 1] += 1
-    for c in range(nb):
-        counts[c + 1] += counts[c]
-    for r in range(n):
-        if key[r] >= 0:
-            slot[r] = counts[key[r]]
-            counts[key[r]] += 1
-    return counts[nb]
+    returns how many were placed.  In ``nt`` bands of keys, one per thread: each thread reads
+    all n keys and counts, then ranks, those in its band, so the bands' counts (counts[k], the
+    grid-sized part of the work) are their own; band[t] takes the drops of the bands before."""
+    for t in prange(nt):
+        b0 = nb * t // nt
+        b1 = nb * (t + 1) // nt
+        counts[b0:b1] = 0
+        for r in range(n):
+            k = key[r]
+            if k >= b0 and k < b1:
+                counts[k] += 1
+        run = 0
+        for k in range(b0, b1):               # each key's first rank within the band
+            c = counts[k]
+            counts[k] = run
+            run += c
+        band[t] = run
+    tot = 0
+    for t in range(nt):
+        c = band[t]
+        band[t] = tot
+        tot += c
+    for t in prange(nt):
+        b0 = nb * t // nt
+        b1 = nb * (t + 1) // nt
+        off = band[t]
+        for r in range(n):
+            k = key[r]
+            if k >= b0 and k < b1:
+                slot[r] = counts[k] + off
+                counts[k] += 1
+    return tot
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -1150,7 +1170,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                 unsorted += 1
     n = n0
     if nout or unsorted:
-        n = _counting_sort(key, n0, nb, counts, slot)
+        n = _counting_sort(key, n0, nb, counts, slot, min(nth, nb), kept)
     _place(fa, ia, key, slot, not (nout or unsorted), pos, vel, volume, sediment, kind, moving,
            age, fb, ib, n0, nx, ny)
     if mode == 0:                                 # the occupied cells' first drops
@@ -1204,7 +1224,7 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
     else:
         for o in prange(n):
             key[o] = ib[o, CELL] if fb[o, VOL] > 0 else -1
-        m = _counting_sort(key, n, ny * nx, counts, slot)
+        m = _counting_sort(key, n, ny * nx, counts, slot, nth, kept)
         for o in prange(n):
             if key[o] >= 0:
                 _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
