@@ -30,8 +30,16 @@ def _run(case, accelerate, steps: int = 25, continued: bool = True):
     return s, d
 
 
+def _spaced(case, spacing):
+    s, d, p = case
+    s.spacing = spacing            # (the kernels multiply by 1 / spacing when it is a power of 2)
+    return s, d, p
+
+
 CASES = {
     "thesis": lambda: _thesis_case()[:3],
+    "thesis-spacing-0.7": lambda: _spaced(_thesis_case()[:3], 0.7),
+    "thesis-spacing-0.5": lambda: _spaced(_thesis_case()[:3], 0.5),
     "thesis-dry-fast": lambda: _thesis_case(evaporation=0.05, threshold=0.0)[:3],
     "capacity-cell": lambda: _capacity_case(footprint="cell")[:3],
     "capacity-bilinear": lambda: _capacity_case(footprint="bilinear")[:3],

@@ -163,8 +163,9 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
     adh_k = p.adhesion * 0.75 * np.sin(np.radians(p.contact_angle)) ** 2   # as in particles.move
     cap_k = -1.0 if p.sediment_capacity is None else float(p.sediment_capacity)
     fade = 1 if (p.capacity_fade and p.max_age > 0) else 0
-    m = _step(s.shape[0], s.shape[1], float(s.spacing), s.base, s.thickness, s.held, s.deposit,
-              s.evaporated, s.drained, s.drained_sediment, s.path,
+    sp = float(s.spacing)
+    m = _step(s.shape[0], s.shape[1], sp, _exact_inverse(sp), s.base, s.thickness, s.held,
+              s.deposit, s.evaporated, s.drained, s.drained_sediment, s.path,
               s.absorption_rate, s.capacity, s.erosion_rate, s.threshold, s.roughness,
               s.absorbs, s.erodible,
               pos, vel, volume, sediment, kind, moving, age, n,
@@ -193,21 +194,34 @@ def _clip(x, lo, hi):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _grad_ij(h, c, i, j, nx, ny, sp):
+def _div(x, d, r):
+    """x / d, as x * r when r is not 0: ``_exact_inverse(d)``, a power of two's inverse, with
+    which the product is the quotient to the bit (both round the same real), in a few cycles
+    where the division takes over ten."""
+    return x * r if r != 0.0 else x / d
+
+
+def _exact_inverse(d: float) -> float:
+    """1 / d if d is a power of two (then x * (1 / d) == x / d exactly), else 0."""
+    return 1.0 / d if math.frexp(d)[0] == 0.5 else 0.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _grad_ij(h, c, i, j, nx, ny, sp, rsp):
     """(dh/dx, dh/dy) at cell c = (column i, row j): np.gradient's central / one-sided
-    differences."""
+    differences (rsp: _exact_inverse(sp))."""
     if i == 0:
-        gx = (h[c + 1] - h[c]) / sp
+        gx = _div(h[c + 1] - h[c], sp, rsp)
     elif i == nx - 1:
-        gx = (h[c] - h[c - 1]) / sp
+        gx = _div(h[c] - h[c - 1], sp, rsp)
     else:
-        gx = (h[c + 1] - h[c - 1]) / (2.0 * sp)
+        gx = _div(h[c + 1] - h[c - 1], 2.0 * sp, 0.5 * rsp)
     if j == 0:
-        gy = (h[c + nx] - h[c]) / sp
+        gy = _div(h[c + nx] - h[c], sp, rsp)
     elif j == ny - 1:
-        gy = (h[c] - h[c - nx]) / sp
+        gy = _div(h[c] - h[c - nx], sp, rsp)
     else:
-        gy = (h[c + nx] - h[c - nx]) / (2.0 * sp)
+        gy = _div(h[c + nx] - h[c - nx], 2.0 * sp, 0.5 * rsp)
     return gx, gy
 
 
@@ -217,7 +231,7 @@ def _grad(h, c, nx, ny, sp):
     quotient (c + 0.5) / nx lies at least 0.5 / nx from an integer, and its rounding error is
     below c / nx * 2**-52, so the truncation is exact for every c < 2**51."""
     j = int((c + 0.5) * (1.0 / nx))
-    return _grad_ij(h, c, c - j * nx, j, nx, ny, sp)
+    return _grad_ij(h, c, c - j * nx, j, nx, ny, sp, 0.0)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -466,8 +480,8 @@ def _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, I,
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _evaporate(ny, nx, sp, held, evaporated, h, evaporation, I, starts, nocc, occs, bufs, nt,
-               ltag, obud):
+def _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, I, starts, nocc, occs, bufs,
+               nt, ltag, obud):
     """particles.evaporate at the cells that hold no drop (the ``nocc`` occupied cells, first
     drops ``starts`` of the packed drops ``I`` in cell order: with the one-cell footprint
     absorption wets only a drop's own cell, so the others' water is final here; the
@@ -483,6 +497,7 @@ def _evaporate(ny, nx, sp, held, evaporated, h, evaporation, I, starts, nocc, oc
     L = len(ltag)
     a = sp * sp
     s2 = 2.0 * sp
+    r2 = 0.5 * rsp
     for t in prange(nt):
         j0 = ny * t // nt
         occ = occs[t]
@@ -505,16 +520,17 @@ def _evaporate(ny, nx, sp, held, evaporated, h, evaporation, I, starts, nocc, oc
             up = r0 - nx if j > 0 else r0            # np.gradient's rows: central, or
             dn = r0 + nx if j < ny - 1 else r0       # one-sided at the edges
             dy = s2 if up != r0 and dn != r0 else sp
+            rdy = r2 if up != r0 and dn != r0 else rsp
             hr = h[r0:r0 + nx]
             hu = h[up:up + nx]
             hd = h[dn:dn + nx]
             for i in range(1, nx - 1):
-                gx = (hr[i + 1] - hr[i - 1]) / s2
-                gy = (hd[i] - hu[i]) / dy
+                gx = _div(hr[i + 1] - hr[i - 1], s2, r2)
+                gy = _div(hd[i] - hu[i], dy, rdy)
                 b = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
                 bud[i] = 0.0 if occ[i] != 0 else b
             for i in (0, nx - 1):
-                gx, gy = _grad_ij(h, r0 + i, i, j, nx, ny, sp)
+                gx, gy = _grad_ij(h, r0 + i, i, j, nx, ny, sp, rsp)
                 b = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
                 bud[i] = 0.0 if occ[i] != 0 else b
             hl = held[r0:r0 + nx]
@@ -532,13 +548,13 @@ def _evaporate(ny, nx, sp, held, evaporated, h, evaporation, I, starts, nocc, oc
             for k in range(q0, q):              # the occupied cells: their budgets for the
                 c = I[starts[k], CELL]              # interaction (this row's heights are in cache)
                 occ[c - r0] = 0
-                gx, gy = _grad_ij(h, c, c - r0, j, nx, ny, sp)
+                gx, gy = _grad_ij(h, c, c - r0, j, nx, ny, sp, rsp)
                 obud[k] = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving, age,
-          F, I, key, by_cell, n, gravity, friction, adh_k, max_speed, stable_speed, max_age):
+def _move(ny, nx, sp, rsp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
+          age, F, I, key, by_cell, n, gravity, friction, adh_k, max_speed, stable_speed, max_age):
     """particles.move of drop i of the caller's arrays (each drop on its own): its sort key
     ``key[i]`` (with ``by_cell`` the end cell, else 0; -1 for a drop that left the grid); a
     moving drop's new state into packed row i (new position, velocity, speed, dh, the end cell
@@ -582,10 +598,10 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
         w1 = fu * (1 - fv)
         w2 = (1 - fu) * fv
         w3 = fu * fv
-        g0x, g0y = _grad_ij(h, c, ci, cj, nx, ny, sp)
-        g1x, g1y = _grad_ij(h, c + 1, ci + 1, cj, nx, ny, sp)
-        g2x, g2y = _grad_ij(h, c + nx, ci, cj + 1, nx, ny, sp)
-        g3x, g3y = _grad_ij(h, c + nx + 1, ci + 1, cj + 1, nx, ny, sp)
+        g0x, g0y = _grad_ij(h, c, ci, cj, nx, ny, sp, rsp)
+        g1x, g1y = _grad_ij(h, c + 1, ci + 1, cj, nx, ny, sp, rsp)
+        g2x, g2y = _grad_ij(h, c + nx, ci, cj + 1, nx, ny, sp, rsp)
+        g3x, g3y = _grad_ij(h, c + nx + 1, ci + 1, cj + 1, nx, ny, sp, rsp)
         gxi = 0.0
         gxi += g0x * w0
         gxi += g1x * w1
@@ -618,8 +634,8 @@ def _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind,
             vx *= f
             vy *= f
             spd = min(spd, vmax)
-        nxp = x + vx / sp
-        nyp = y + vy / sp
+        nxp = x + _div(vx, sp, rsp)
+        nyp = y + _div(vy, sp, rsp)
         F[i, DH] = _height_at(h, _clip(nxp, 0.0, hi_x), _clip(nyp, 0.0, hi_y), nx, ny) \
             - _height_at(h, x, y, nx, ny)
         ag = I[i, AGE] + 1
@@ -1127,7 +1143,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drained_sed, path,
+def _step(ny, nx, sp, rsp, base, thickness, held, deposit, evaporated, drained, drained_sed, path,
           absorption_rate, capacity, erosion_rate, threshold, roughness, absorbs, erodible,
           pos, vel, volume, sediment, kind, moving, age, n0,
           gravity, friction, adh_k, max_speed, stable_speed, max_age, speed_ref, evaporation,
@@ -1156,8 +1172,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
                         ltag)
     # --- move (reading the caller's arrays, in their order: the cell order of the last step
     # plus any drops appended since) into packed rows, drain -----------------------------------
-    nout = _move(ny, nx, sp, h, thickness, roughness, pos, vel, volume, sediment, kind, moving,
-                 age, fa, ia, key, mode == 0, n0, gravity, friction, adh_k, max_speed,
+    nout = _move(ny, nx, sp, rsp, h, thickness, roughness, pos, vel, volume, sediment, kind,
+                 moving, age, fa, ia, key, mode == 0, n0, gravity, friction, adh_k, max_speed,
                  stable_speed, max_age)
     if nout:
         _drain(fa, ia, key, n0, L, sk, stamps, touched, drained, drained_sed)
@@ -1181,8 +1197,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
         starts[1] = n
     # --- with the one-cell footprint, evaporate the cells without drops ------------------------
     if mode == 0 and evaporation > 0:
-        _evaporate(ny, nx, sp, held, evaporated, h, evaporation, ib, starts, ncell, occs, bufs, nth,
-                   ltag, obud)
+        _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, ib, starts, ncell, occs, bufs,
+                   nth, ltag, obud)
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread, each
     # writing its drops with water back into the caller's arrays from its first drop on -------
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
@@ -1229,8 +1245,8 @@ def _step(ny, nx, sp, base, thickness, held, deposit, evaporated, drained, drain
             if key[o] >= 0:
                 _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
     if evaporation > 0 and mode != 0:
-        _evaporate(ny, nx, sp, held, evaporated, h, evaporation, ib, starts, 0, occs, bufs, nth,
-                   ltag, obud)
+        _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, ib, starts, 0, occs, bufs,
+                   nth, ltag, obud)
     occupied[0] = ncell if mode == 0 else -1     # (wider footprints change cells around drops)
     return m
 
