@@ -28,7 +28,9 @@ it) and that step had the one-cell footprint, only the cells its drops were in a
 elsewhere the layers did not change and the water only evaporated.  With the one-cell
 footprint a cell's water is final once its drops have interacted (absorption wets only a
 drop's own cell), so the cells without drops evaporate in a grid pass before the interaction
-and the drops' cells at the end of their interaction, while their rows are in cache.
+and the drops' cells at the end of their interaction, while their rows are in cache (with the
+budgets the grid pass left them: it has their heights in cache).  A power-of-two spacing's
+divisions are multiplications by its exact inverse (``_div``: the same bits).
 
 Speed (a loop like this one mostly waits for memory and for mispredicted branches): the
 footprint, whether drops have a sediment capacity and the layer count are tuple-length tags, so
@@ -44,9 +46,9 @@ cost that loop about 40% of its time.
 Threads (numba's, see procgen.accel): the grid passes run in chunks of cells or rows, the drops'
 move and placing in chunks of drops, and with the one-cell footprint the interaction in chunks
 of whole cells (each with its own key rows and scratch), each chunk writing its drops back while
-they are in cache (then the chunks close up); every number belongs to one cell or one drop, so
-the result does not depend on the thread count.  The counting sort, the drain and the wider
-footprints' interaction stay serial.
+they are in cache (then the chunks close up), the counting sort in bands of keys; every number
+belongs to one cell or one drop, so the result does not depend on the thread count.  The drain
+and the wider footprints' interaction stay serial.
 
 Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
 height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
