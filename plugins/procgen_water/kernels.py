@@ -94,7 +94,7 @@ class Work:
         self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
         self.stamps = np.zeros(1)                           # sk's phase stamp
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
-        self.kept = np.empty(threads + 1, np.int64)   # per thread: its drops with water; its sort band
+        self.kept = np.empty(threads + 1, np.int64)         # per thread: drops kept; sort band
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
         self.occupied = np.full(1, -1, np.int64)  # cells the last step's drops were in (-1: unknown)
@@ -181,7 +181,7 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.starts, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched, work.occs, work.bufs, (0,) * s.n_layers, since,
               work.occupied, work.obud)
-    if m < 0:                 # (checked before any write; erosion sets a kind with the first sediment)
+    if m < 0:        # (checked before any write; erosion sets a kind with the first sediment)
         raise AssertionError("a drop carrying sediment has no sediment kind")
     work.current_at = s.steps + 1                 # (P.step counts this step once it returns)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
@@ -204,8 +204,9 @@ def _div(x, d, r):
 
 
 def _exact_inverse(d: float) -> float:
-    """1 / d if d is a power of two (then x * (1 / d) == x / d exactly), else 0."""
-    return 1.0 / d if math.frexp(d)[0] == 0.5 else 0.0
+    """1 / d if d is a power of two (then x * (1 / d) == x / d exactly) whose inverse is a
+    normal number, else 0."""
+    return 1.0 / d if math.frexp(d)[0] == 0.5 and 2.0 ** -1020 < d < 2.0 ** 1020 else 0.0
 
 
 @njit(cache=True, nogil=True, inline="always")
