@@ -15,8 +15,8 @@ runs stay on numpy).
 
 Threads: the kernels that update every cell independently run in parallel over numba's
 threads (``NUMBA_NUM_THREADS``, default all cores; the result does not depend on the count).
-Between two parallel regions numba's OpenMP threads wait; how is :func:`wait_policy`'s choice
-(a short spin, then sleep) unless the user set it, and local worker pools (gallery, sweep) give
+Between two parallel regions numba's OpenMP threads wait as :func:`wait_policy` chooses (a
+short spin, then sleep) unless the user chose, and local worker pools (gallery, sweep) give
 each worker process an equal share of the cores (:func:`share_cores`), so no process's threads
 wait for cores another one holds.
 """
@@ -83,7 +83,7 @@ def wait_policy() -> None:
     numba's threads start (the first kernel module to load does).
 
     Why: a compiled step runs several parallel regions with serial work between them (the water
-    step six, a sort between two).  On the 2-core virtual machine of benchmarks/ a region costs
+    step seven, a sort between two).  On the 2-core virtual machine of benchmarks/ a region costs
     2 us when its threads spin and 70-140 us when they sleep (their wake-up), which cost the
     water step a sixth of its time while every idle thread slept at once
     (``OMP_WAIT_POLICY=PASSIVE``).  Spinning without bound (``ACTIVE``) would take a core from
