@@ -10,9 +10,10 @@ same process.  Prints drop-steps per second for both, their ratio, and absolute 
 RSS), one after the other: the numpy step (``accelerate=False``), the compiled step
 (procgen_water.kernels; numba import and kernel load/compile are timed apart, on a warm-up step)
 and the machine's limit: a trivial compiled kernel doing the least memory traffic a step needs,
-in the order that costs least (the compiled path's own order): one pass over the grid, each
-cell's held water read and written back and its height read (evaporation's least traffic: a
-continued step needs no other full-grid pass); the drops counting-sorted by cell (int32 slots); per
+in the order that costs least (the compiled path's own order): each cell holding water at the
+step's start (as an untimed compiled run of the workload found them) has its held water read and
+written back and its height read (evaporation's least traffic: a continued step needs no other
+pass over the grid); the drops counting-sorted by cell (int32 slots); per
 drop, in cell order, its state read and written back, the 4x4 cells of its gradient stencil
 and its cell's layers read and written back; no arithmetic to speak of.  Two rows: ``drops``
 on one thread, timed in CPU time (``time.process_time``: the machine is shared by several jobs
@@ -135,15 +136,17 @@ def path_child(a) -> None:
         return rule_child(a, fig)
     if a.path == "limit":
         from procgen_water.kernels import bytes_per_cell
+        wet = _wet_cells(s, d, p, a.steps)
         run = _limit_kernel()
         h = s.height()
         counts, order = np.empty(s.ncell + 1, np.int32), np.empty(n0, np.int32)
         args = (s.thickness, s.held, h, d.pos, s.shape[0], s.shape[1], counts, order)
-        run(*args)                                                                  # compile
+        run(*args, wet[0])                                                          # compile
         t0 = clock()
-        for _ in range(a.steps):
-            run(*args)
+        for cells in wet:
+            run(*args, cells)
         t = clock() - t0
+        fig["wet_cells_per_step"] = round(sum(c.size for c in wet) / len(wet))
         _paths.report(seconds=t / (a.steps * n0), bytes_per_cell_scratch=bytes_per_cell(s.n_layers), **fig)
         return
     accelerate = a.path == "compiled"
@@ -219,16 +222,28 @@ def rule_child(a, fig: dict) -> None:
     _paths.report(seconds=t / drop_steps[0], **fig)
 
 
+def _wet_cells(s, d, p, steps: int) -> list[np.ndarray]:
+    """Per step of the workload, the cells holding water at its start (an untimed run of the
+    compiled step on copies): the cells the limit kernel must visit."""
+    s, d = copy.deepcopy(s), copy.deepcopy(d)
+    wet = []
+    for it in range(steps):
+        wet.append(np.flatnonzero(s.held.any(axis=1)).astype(np.int32))
+        d = P.step(s, d, p, accelerate=True, continued=it > 0)
+    return wet
+
+
 def _limit_kernel():
     """The trivial kernel of ``--paths``: the step's least memory traffic, next to no arithmetic;
-    the grid pass and the drop pass split over numba's threads as the compiled step's are."""
+    the cell pass and the drop pass split over numba's threads as the compiled step's are."""
     from numba import njit, prange
 
     @njit(cache=True, nogil=True, parallel=True)
-    def run(thickness, held, h, pos, ny, nx, counts, order):
+    def run(thickness, held, h, pos, ny, nx, counts, order, wet):
         L = thickness.shape[1]
         n = pos.shape[0]
-        for c in prange(ny * nx):                # stream: held water and height -> held water
+        for k in prange(wet.size):               # the wet cells: held water and height in and
+            c = wet[k]                           # held water out
             v = 0.0 * h[c]
             for l in range(L):
                 held[c, l] += v

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
@@ -15,9 +16,10 @@ SURFACE = ("thickness", "held", "deposit", "emitted", "evaporated", "drained", "
 DROPS = ("pos", "vel", "volume", "sediment", "kind", "moving", "age")
 
 
-def _run(case, accelerate, steps: int = 25, continued: bool = True):
+def _run(case, accelerate, steps: int = 25, continued: bool = True, check=None):
     """``steps`` steps from ``case``; ``accelerate`` a bool or, per step, a function of it;
-    ``continued`` after the first step (as the rule does: nothing else writes the surface)."""
+    ``continued`` after the first step (as the rule does: nothing else writes the surface);
+    ``check(s, d)`` after each step."""
     s, d, p = case
     s, d = copy.deepcopy(s), copy.deepcopy(d)
     for it in range(steps):
@@ -27,6 +29,8 @@ def _run(case, accelerate, steps: int = 25, continued: bool = True):
         d = P.step(s, d, p, accelerate=acc, continued=continued and it > 0)
         cells = P._cell_of(d.pos, s.shape)
         assert np.all(cells[1:] >= cells[:-1]), it          # the canonical (cell) order
+        if check is not None:
+            check(s, d)
     return s, d
 
 
@@ -36,8 +40,14 @@ def _spaced(case, spacing):
     return s, d, p
 
 
+def _with(case, **params):
+    s, d, p = case
+    return s, d, dataclasses.replace(p, **params)
+
+
 CASES = {
     "thesis": lambda: _thesis_case()[:3],
+    "thesis-capacity": lambda: _with(_thesis_case()[:3], sediment_capacity=2.0),
     "thesis-spacing-0.7": lambda: _spaced(_thesis_case()[:3], 0.7),
     "thesis-spacing-0.5": lambda: _spaced(_thesis_case()[:3], 0.5),
     "thesis-dry-fast": lambda: _thesis_case(evaporation=0.05, threshold=0.0)[:3],
@@ -137,14 +147,70 @@ def test_compiled_step_on_two_threads_equals_numpy_step_exactly(name, monkeypatc
         np.testing.assert_array_equal(getattr(s1, f), getattr(s0, f), err_msg=f)
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("name", ["thesis", "thesis-spacing-0.7", "thesis-dry-fast", "thesis-capacity"])
+def test_listed_evaporation_equals_numpy_step_exactly(name, threads, monkeypatch):
+    """A continued step evaporates only the cells the last step listed (those holding water or a
+    drop) once they are fewer than 1 / _SPARSE of the grid; here from the second step on.  After every step the list holds each wet cell and each drop's cell, once, in
+    order, and the numbers are the numpy step's."""
+    numba = pytest.importorskip("numba")
+    from procgen_water import kernels as K
+    monkeypatch.setattr(K, "_SPARSE", 0.2)           # (a count of wet layers: at most 4 per cell)
+    monkeypatch.setattr(K, "_MIN_CHUNK", 1)
+    listed = []
+
+    def check(s, d):
+        work = s.__dict__[K._ATTR]
+        listed.append(int(work.nwet[0]))
+        if work.nwet[0] >= 0:
+            cells = work.wet[:work.nwet[0]]
+            assert np.all(np.diff(cells) > 0)
+            must = np.union1d(np.flatnonzero(s.held.sum(axis=1) > 0), P._cell_of(d.pos, s.shape))
+            assert np.isin(must, cells).all()
+
+    case = CASES[name]()
+    ref = _run(case, False)
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        got = _run(case, True, check=check)
+    finally:
+        numba.set_num_threads(before)
+    _assert_same(ref, got)
+    assert all(n >= 0 for n in listed)                         # the listed pass really ran
+
+
+def test_listed_evaporation_visits_only_the_listed_cells(monkeypatch):
+    """Water put behind the step's back into a dry cell off the list stays through a continued
+    step (the step did not visit the cell) and evaporates in a step that is not continued."""
+    from procgen_water import kernels as K
+    monkeypatch.setattr(K, "_SPARSE", 0.2)
+    s, d, p = copy.deepcopy(CASES["thesis"]())
+    d = P.step(s, d, p, accelerate=True)
+    work = s.__dict__[K._ATTR]
+    assert work.nwet[0] >= 0
+    near = np.zeros(s.shape, bool)                 # the drops' cells and their neighbours
+    iy, ix = np.unravel_index(P._cell_of(d.pos, s.shape), s.shape)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            near[np.clip(iy + dy, 0, s.shape[0] - 1), np.clip(ix + dx, 0, s.shape[1] - 1)] = True
+    off = np.setdiff1d(np.flatnonzero(~near), work.wet[:work.nwet[0]])[:2]
+    assert off.size == 2 and not s.held[off].any()
+    s.held[off, 0] = 1e-6
+    d = P.step(s, d, p, accelerate=True, continued=True)
+    assert (s.held[off, 0] == 1e-6).all()
+    P.step(s, d, p, accelerate=True, continued=False)
+    assert (s.held[off, 0] < 1e-6).all()
+
+
 def test_compiled_step_keeps_no_grid_sized_temporaries_between_steps():
     from procgen_water import kernels as K
     s, d, p = CASES["thesis"]()
     d = P.step(s, d, p, accelerate=True)
     work = s.__dict__[K._ATTR]
-    ids = [id(a) for a in (work.sk, work.h, work.counts)]
+    ids = {id(a) for a in (work.sk, work.h, work.counts, work.wet, work.wout)}
     d = P.step(s, d, p, accelerate=True)
-    assert ids == [id(a) for a in (work.sk, work.h, work.counts)]
+    assert ids == {id(a) for a in (work.sk, work.h, work.counts, work.wet, work.wout)}   # (lists swap)
     assert not work.sk[:, 3].any()                # the deposit columns are left at zero
     assert not work.cell_sk[..., 3].any()
     assert work.grid_bytes == s.ncell * K.bytes_per_cell(s.n_layers) + 4     # + 1 sort slot

@@ -72,6 +72,7 @@ _FOOTPRINTS = {"cell": 0, "bilinear": 1, "disc": 2}
 _ATTR = "_drop_kernel_work"
 _MIN_CHUNK = 2048          # drops per thread below which the interaction runs on fewer threads
 _AHEAD = 8                 # occupied cells (interaction) / drops (move) whose lines are prefetched
+_SPARSE = 3.0              # evaporation visits the listed wet cells if fewer than 1 / _SPARSE
 
 # a drop's packed rows: floats (64 bytes) and int32s (20 bytes; KIND..AGE are the Drops fields,
 # CELL / TOP per-step scratch)
@@ -98,6 +99,10 @@ class Work:
         self.h = np.empty(ncell)
         self.counts = np.empty(ncell + 1, np.int32)
         self.occupied = np.full(1, -1, np.int64)  # cells the last step's drops were in (-1: unknown)
+        self.wet = np.empty(ncell, np.int32)      # the cells that may hold water, in order ...
+        self.wout = np.empty(ncell, np.int32)     # ... and the next step's list
+        self.nwet = np.full(1, -1, np.int64)      # their count (-1: unknown)
+        self.wseg = np.zeros((threads, 2), np.int64)   # per thread: its part of wout (first, count)
         self.current_at = -1                      # Surface.steps at which h is current
         self.cap = 0
         self.pcap = 0
@@ -127,7 +132,7 @@ class Work:
 
     @property
     def grid_bytes(self) -> int:
-        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes
+        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes + self.wet.nbytes + self.wout.nbytes
 
     @property
     def bytes_per_drop(self) -> int:
@@ -142,8 +147,9 @@ class Work:
 
 
 def bytes_per_cell(n_layers: int) -> int:
-    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots)."""
-    return 32 * n_layers + 12
+    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots, two
+    wet-cell lists)."""
+    return 32 * n_layers + 20
 
 
 def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
@@ -180,9 +186,11 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
               work.chunks, work.kept, min(numba.get_num_threads(), work.chunks.size - 1),
               _MIN_CHUNK, work.fa, work.ia, work.fb, work.ib, work.rk, work.starts, work.ent, work.pairs, work.pkey,
               work.touched, work.dtouched, work.occs, work.bufs, (0,) * s.n_layers, since,
-              work.occupied, work.obud)
+              work.occupied, work.obud, work.wet, work.wout, work.wseg, work.nwet, float(_SPARSE))
     if m < 0:        # (checked before any write; erosion sets a kind with the first sediment)
         raise AssertionError("a drop carrying sediment has no sediment kind")
+    if work.nwet[0] >= 0:                         # the step's list of wet cells is the next one's
+        work.wet, work.wout = work.wout, work.wet
     work.current_at = s.steps + 1                 # (P.step counts this step once it returns)
     return P.Drops(pos[:m], vel[:m], volume[:m], sediment[:m], kind[:m], moving[:m], age[:m])
 
@@ -484,7 +492,7 @@ def _height_release_cells(sp, base, thickness, held, capacity, evaporated, h, I,
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, I, starts, nocc, occs, bufs,
-               nt, ltag, obud):
+               nt, ltag, obud, wout, wseg, sparse):
     """particles.evaporate at the cells that hold no drop (the ``nocc`` occupied cells, first
     drops ``starts`` of the packed drops ``I`` in cell order: with the one-cell footprint
     absorption wets only a drop's own cell, so the others' water is final here; the
@@ -496,23 +504,26 @@ def _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, I, starts, noc
     without a branch, in loops the compiler vectorizes; a dry cell or one holding a drop
     (``occs[t]`` flags the row's occupied columns) evaporates with a budget of 0, which changes
     no bit (held and the ledger are never negative).  The budgets (``bufs[t, :nx]``: the slope's
-    square root) come first in a loop of their own, then the layers take from them."""
+    square root) come first in a loop of their own, then the layers take from them.
+
+    The rows' wet layers and occupied cells are counted (a flat loop: it vectorizes); if a
+    chunk has fewer than 1 / ``sparse`` of its cells (``sparse`` 0: never; below 1 / (L + 1):
+    always), its cells that hold water or a
+    drop are listed in order in ``wout`` from its first cell on (a second pass, run once as the
+    grid dries), ``wseg[t]`` = (that index, their count; -1: not listed), for _evaporate_wet's
+    next step."""
     L = len(ltag)
     a = sp * sp
     s2 = 2.0 * sp
     r2 = 0.5 * rsp
+    hf = held.reshape(-1)
     for t in prange(nt):
         j0 = ny * t // nt
         occ = occs[t]
         bud = bufs[t, :nx]
-        lo = 0                                   # the first occupied cell in this chunk's rows
-        hi = nocc
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if I[starts[mid], CELL] < j0 * nx:
-                lo = mid + 1
-            else:
-                hi = mid
+        m = j0 * nx                              # (+ the cells that may hold water)
+        wseg[t, 0] = m
+        lo = _first_at(I, starts, nocc, j0 * nx)   # the first occupied cell in these rows
         q = lo
         for j in range(j0, ny * (t + 1) // nt):
             r0 = j * nx
@@ -548,11 +559,137 @@ def _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, I, starts, noc
                     budget -= e
                     total += e
                 ev[i] += total
+            wl = hf[r0 * L:(r0 + nx) * L]           # wet layers: at least the wet cells
+            for k in range(nx * L):
+                m += wl[k] > 0
+            m += q - q0                              # and the occupied ones
             for k in range(q0, q):              # the occupied cells: their budgets for the
                 c = I[starts[k], CELL]              # interaction (this row's heights are in cache)
                 occ[c - r0] = 0
                 gx, gy = _grad_ij(h, c, c - r0, j, nx, ny, sp, rsp)
                 obud[k] = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
+        wseg[t, 1] = -1                          # not listed: too many
+        if sparse > 0 and (m - j0 * nx) * sparse < (ny * (t + 1) // nt - j0) * nx:
+            wseg[t, 1] = _list_rows(nx, held, I, starts, nocc, lo, j0, ny * (t + 1) // nt,
+                                    occ, wout, L)
+
+
+@njit(cache=True, nogil=True)
+def _list_rows(nx, held, I, starts, nocc, q, j0, j1, occ, wout, L):
+    """_evaporate's list of rows j0..j1-1 (their first occupied cell: the q-th): the cells
+    holding water or a drop, in order, from wout[j0 * nx] on; returns their count."""
+    m = j0 * nx
+    for j in range(j0, j1):
+        r0 = j * nx
+        q0 = q
+        while q < nocc and I[starts[q], CELL] < r0 + nx:
+            occ[I[starts[q], CELL] - r0] = 1
+            q += 1
+        hl = held[r0:r0 + nx]
+        for i in range(nx):                      # (no branch)
+            keep = occ[i] != 0
+            for l in range(L):
+                keep |= hl[i, l] > 0
+            wout[m] = r0 + i
+            m += keep
+        for k in range(q0, q):
+            occ[I[starts[k], CELL] - r0] = 0
+    return m - j0 * nx
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _first_at(I, starts, nocc, c):
+    """The first of the ``nocc`` occupied cells (first drops ``starts`` of the packed drops I,
+    in cell order) at or after cell c."""
+    lo = 0
+    hi = nocc
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if I[starts[mid], CELL] < c:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _evaporate_wet(ny, nx, sp, rsp, held, evaporated, h, evaporation, I, starts, nocc, wet, nwet,
+                   wout, wseg, nt, ltag, obud):
+    """_evaporate in a continued step after a listed one (``wet``: the ``nwet`` cells, in
+    order, that held water or a drop at the end of the last step; every other cell is dry and
+    stays so, with the one-cell footprint only a drop wets a cell), visiting only the listed and
+    the occupied cells, merged in order, in ``nt`` chunks of the list: a listed cell without a
+    drop evaporates (the same expressions as _evaporate, so the same numbers) and stays listed
+    while it holds water; an occupied cell gets its budget and is listed.  The next list goes to
+    ``wout`` as _evaporate's does.  Most of the grid is dry most of the time (a sixth of it on
+    average in benchmarks/water.py), so this reads a fraction of the grid pass's lines."""
+    L = len(ltag)
+    a = sp * sp
+    nc = ny * nx
+    hf = held.reshape(-1)
+    for t in prange(nt):
+        p = nwet * t // nt
+        p1 = nwet * (t + 1) // nt
+        clo = 0 if t == 0 else (wet[p] if p < nwet else nc)         # the chunk's cells:
+        chi = nc if t == nt - 1 else (wet[p1] if p1 < nwet else nc)  # [clo, chi)
+        k = _first_at(I, starts, nocc, clo)
+        k1 = _first_at(I, starts, nocc, chi)
+        m = p + k
+        wseg[t, 0] = m
+        cw = wet[p] if p < p1 else nc
+        co = I[starts[k], CELL] if k < k1 else nc
+        while p < p1 or k < k1:
+            if p + _AHEAD < p1:
+                c = wet[p + _AHEAD]
+                prefetch(hf, c * L)
+                prefetch(hf, c * L + L - 1)
+                prefetch(evaporated, c)
+                prefetch(h, max(c - nx, 0))
+                prefetch(h, c)
+                prefetch(h, min(c + nx, nc - 1))
+            c = min(cw, co)
+            j = int((c + 0.5) * (1.0 / nx))       # (exact: see _grad)
+            gx, gy = _grad_ij(h, c, c - j * nx, j, nx, ny, sp, rsp)
+            b = evaporation * (a * math.sqrt(1.0 + gx * gx + gy * gy))
+            wout[m] = c
+            if co <= cw:                          # a drop's cell: evaporates in the interaction
+                obud[k] = b
+                m += 1
+                k += 1
+                co = I[starts[k], CELL] if k < k1 else nc
+            else:
+                budget = b
+                total = 0.0
+                keep = False
+                for l in range(L - 1, -1, -1):    # top layer first
+                    v = held[c, l]
+                    e = min(v, budget)
+                    held[c, l] = v - e
+                    budget -= e
+                    total += e
+                    keep |= v - e > 0
+                evaporated[c] += total
+                m += keep
+            if cw == c:
+                p += 1
+                cw = wet[p] if p < p1 else nc
+        wseg[t, 1] = m - wseg[t, 0]
+
+
+@njit(cache=True, nogil=True)
+def _close_list(wout, wseg, nt):
+    """The chunks' parts of the wet-cell list (``wseg``) moved down into one; returns its
+    length (-1: a chunk has none, it would have been too long)."""
+    m = 0
+    for t in range(nt):
+        if wseg[t, 1] < 0:
+            return -1
+    for t in range(nt):
+        lo = wseg[t, 0]
+        for q in range(wseg[t, 1] if lo != m else 0):
+            wout[m + q] = wout[lo + q]
+        m += wseg[t, 1]
+    return m
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -1153,7 +1290,7 @@ def _step(ny, nx, sp, rsp, base, thickness, held, deposit, evaporated, drained, 
           cap_k, min_slope, deposition_rate, max_concentration, erode_stabilised, fade, fptag,
           captag, oy, ox, ow, sk, cell_sk, stamps, h, counts, chunks, kept, nth, min_chunk,
           fa, ia, fb, ib, rk, starts, ent, pairs, pkey, touched, dtouched, occs, bufs, ltag,
-          since, occupied, obud):
+          since, occupied, obud, wet, wout, wseg, nwet, sparse):
     mode = len(fptag) - 1                         # compile-time constants (see _interact)
     L = thickness.shape[1]
     nb = ny * nx if mode == 0 else 1              # sort buckets: cells, or one (drop order)
@@ -1198,10 +1335,18 @@ def _step(ny, nx, sp, rsp, base, thickness, held, deposit, evaporated, drained, 
         ncell = 1
         starts[0] = 0
         starts[1] = n
-    # --- with the one-cell footprint, evaporate the cells without drops ------------------------
+    # --- with the one-cell footprint, evaporate the cells without drops: the wet ones listed by
+    # the last step if it was listed, else the grid; list the cells that may hold water after ---
     if mode == 0 and evaporation > 0:
-        _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, ib, starts, ncell, occs, bufs,
-                   nth, ltag, obud)
+        if since and 0 <= nwet[0] and nwet[0] * sparse < ny * nx:
+            _evaporate_wet(ny, nx, sp, rsp, held, evaporated, h, evaporation, ib, starts, ncell,
+                           wet, nwet[0], wout, wseg, nth, ltag, obud)
+        else:
+            _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, ib, starts, ncell, occs,
+                       bufs, nth, ltag, obud, wout, wseg, sparse)
+        nwet[0] = _close_list(wout, wseg, nth)
+    else:
+        nwet[0] = -1
     # --- interact: with the one-cell footprint in chunks of whole cells, one per thread, each
     # writing its drops with water back into the caller's arrays from its first drop on -------
     nt = max(1, min(nth, n // min_chunk)) if mode == 0 else 1
@@ -1249,7 +1394,7 @@ def _step(ny, nx, sp, rsp, base, thickness, held, deposit, evaporated, drained, 
                 _unpack(fb, ib, o, slot[o], pos, vel, volume, sediment, kind, moving, age)
     if evaporation > 0 and mode != 0:
         _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, ib, starts, 0, occs, bufs,
-                   nth, ltag, obud)
+                   nth, ltag, obud, wout, wseg, 0.0)
     occupied[0] = ncell if mode == 0 else -1     # (wider footprints change cells around drops)
     return m
 
