@@ -92,7 +92,8 @@ class Work:
         threads = numba.config.NUMBA_NUM_THREADS            # the most a step can use
         self.occs = np.zeros((threads, nx), np.int32)       # per thread: a row's occupied cells
         self.bufs = np.empty((threads, (n_layers + 1) * nx))  # per thread: budgets, capacities
-        self.cell_sk = np.zeros((threads, n_layers, 4))     # per thread: one cell's key rows
+        # per thread: one cell's key rows, 128 bytes apart (no line shared: written per cell)
+        self.cell_sk = np.zeros((threads, n_layers + 4, 4))
         self.stamps = np.zeros(1)                           # sk's phase stamp
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
         self.kept = np.empty(threads + 1, np.int64)         # per thread: drops kept; sort band
