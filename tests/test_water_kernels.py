@@ -151,11 +151,12 @@ def test_compiled_step_on_two_threads_equals_numpy_step_exactly(name, monkeypatc
 @pytest.mark.parametrize("name", ["thesis", "thesis-spacing-0.7", "thesis-dry-fast", "thesis-capacity"])
 def test_listed_evaporation_equals_numpy_step_exactly(name, threads, monkeypatch):
     """A continued step evaporates only the cells the last step listed (those holding water or a
-    drop) once they are fewer than 1 / _SPARSE of the grid; here from the second step on.  After every step the list holds each wet cell and each drop's cell, once, in
-    order, and the numbers are the numpy step's."""
+    drop) once they are fewer than 1 / _SPARSE of the grid; here from the second step on, on one
+    thread and on two.  After every step the list holds each wet cell and each drop's cell,
+    once, in order, and the numbers are the numpy step's."""
     numba = pytest.importorskip("numba")
     from procgen_water import kernels as K
-    monkeypatch.setattr(K, "_SPARSE", 0.2)           # (a count of wet layers: at most 4 per cell)
+    monkeypatch.setattr(K, "_SPARSE", 0.2)       # (wet layers + drops counted: 4 per cell at most)
     monkeypatch.setattr(K, "_MIN_CHUNK", 1)
     listed = []
 

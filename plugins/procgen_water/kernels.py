@@ -29,8 +29,11 @@ elsewhere the layers did not change and the water only evaporated.  With the one
 footprint a cell's water is final once its drops have interacted (absorption wets only a
 drop's own cell), so the cells without drops evaporate in a grid pass before the interaction
 and the drops' cells at the end of their interaction, while their rows are in cache (with the
-budgets the grid pass left them: it has their heights in cache).  A power-of-two spacing's
-divisions are multiplications by its exact inverse (``_div``: the same bits).
+budgets the grid pass left them: it has their heights in cache).  Once fewer than a third of
+the cells hold water or a drop, that pass lists them, and the continued steps after it visit
+only the listed cells and the drops' cells (merged in cell order), listing those that stay wet:
+a dry cell without a drop stays dry.  A power-of-two spacing's divisions are multiplications by
+its exact inverse (``_div``: the same bits).
 
 Speed (a loop like this one mostly waits for memory and for mispredicted branches): the
 footprint, whether drops have a sediment capacity and the layer count are tuple-length tags, so
@@ -51,8 +54,10 @@ belongs to one cell or one drop, so the result does not depend on the thread cou
 and the wider footprints' interaction stay serial.
 
 Memory: per (cell, layer) key one 32-byte row (sum, value, phase stamp, deposit sum), per cell the
-height and a 4-byte counting-sort slot, all allocated once per Surface; per drop two packed rows
-in each of two buffers and the pair scratch, grown geometrically: a step allocates nothing
+height, a 4-byte counting-sort slot and two 4-byte wet-cell lists (this step's, the next's), all
+allocated once per Surface; per thread a cell's key rows, 128 bytes from the next thread's (a
+cache line both threads wrote at every cell cost the step about 4%); per drop two packed rows in
+each of two buffers and the pair scratch, grown geometrically: a step allocates nothing
 (``bytes_per_cell``, ``Work.bytes_per_drop``).
 """
 from __future__ import annotations
