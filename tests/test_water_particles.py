@@ -224,3 +224,33 @@ def test_step_returns_drops_in_cell_order_ties_in_their_previous_order(accelerat
     d = P.step(s, d, WaterDrops(evaporation=0.0), accelerate=accelerate)
     assert d.volume.tolist() == [3.0, 2.0, 5.0, 1.0, 4.0, 6.0]    # cells 9, 11, 11, 55, 55, 55
     assert np.array_equal(d.pos, pos[[2, 1, 4, 0, 3, 5]])           # at rest on the flat plane
+
+
+def test_derived_fields_match_their_definitions_cell_by_cell():
+    """update_derived (vectorized, in place where it can) against the definitions, one cell at
+    a time: each layer's top is base + the thicknesses up to it, the height the last top, the
+    saturation the exposed layer's held water over its capacity (capacity * thickness * cell
+    area), clipped to [0, 1], 0 over a hole or a layer that holds nothing."""
+    from procgen.domains import Grid
+    from procgen_water.state_io import update_derived
+    s, d, p, tab = _thesis_case()
+    for _ in range(6):
+        d = P.step(s, d, p)
+    s.thickness[::7, 1] = 0.0                  # bare patina cells, and holes through both layers
+    s.thickness[::11, :] = 0.0
+    s.held[::5, 0] += 1.0                      # above capacity somewhere (clipped to 1)
+    g = Grid(s.shape)
+    update_derived(g, s, tab)
+    cap = tab.array("capacity")
+    tops, height, sat = g["layers__top"].reshape(s.ncell, -1), g["surface__height"].ravel(), \
+        g["water__saturation"].ravel()
+    assert 0 < (sat == 1).sum() and 0 < (sat == 0).sum() < s.ncell
+    for c in range(s.ncell):
+        t = s.thickness[c]
+        want = [s.base[c] + sum(t[:l + 1]) for l in range(s.n_layers)]
+        np.testing.assert_allclose(tops[c], want, rtol=1e-12)
+        assert height[c] == tops[c, -1]
+        on = [l for l in range(s.n_layers) if t[l] > 0]
+        held_cap = cap[on[-1]] * t[on[-1]] * s.cell_area if on else 0.0
+        want_sat = min(max(s.held[c, on[-1]] / held_cap, 0.0), 1.0) if held_cap > 0 else 0.0
+        assert sat[c] == pytest.approx(want_sat, rel=1e-12, abs=0), c
