@@ -88,9 +88,10 @@ def surface_view(state: State, grid: str) -> tuple[Grid, Surface, MaterialTable]
 def update_derived(g: Grid, s: Surface, table: MaterialTable) -> None:
     """Refresh total height, per-layer top surfaces and exposed-layer saturation.
 
-    In place where it can: at 512 x 512 each grid-sized temporary is fresh memory whose page
-    faults cost about as much as the arithmetic (a publish took 40-50 ms after compiled steps,
-    which leave the allocator no freed memory to reuse, against 20 ms after numpy steps)."""
+    In place where it can: at 512 x 512 a grid-sized temporary is often fresh memory, whose page
+    faults cost about as much as the arithmetic.  After 100 compiled steps (which leave the
+    allocator no large freed blocks to reuse) this took 37-45 ms, after numpy steps 16-18 ms;
+    with half the temporaries, 13 ms once the allocator has blocks to reuse."""
     n, L = s.ncell, s.n_layers
     tops = np.cumsum(s.thickness.reshape(g.shape + (L,)), axis=-1)
     tops += s.base.reshape(g.shape)[..., None]
