@@ -664,17 +664,10 @@ def _evaporate_wet(ny, nx, sp, rsp, held, evaporated, h, evaporation, I, starts,
                 k += 1
                 co = I[starts[k], CELL] if k < k1 else nc
             else:
-                budget = b
-                total = 0.0
+                _evaporate_at(c, b, held, evaporated, L)
                 keep = False
-                for l in range(L - 1, -1, -1):    # top layer first
-                    v = held[c, l]
-                    e = min(v, budget)
-                    held[c, l] = v - e
-                    budget -= e
-                    total += e
-                    keep |= v - e > 0
-                evaporated[c] += total
+                for l in range(L):
+                    keep |= held[c, l] > 0
                 m += keep
             if cw == c:
                 p += 1
