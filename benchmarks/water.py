@@ -13,11 +13,11 @@ and the machine's limit: a trivial compiled kernel doing the least memory traffi
 in the order that costs least (the compiled path's own order): each cell holding water at the
 step's start (as an untimed compiled run of the workload found them) has its held water read and
 written back and its height read (evaporation's least traffic: a continued step needs no other
-pass over the grid); the drops counting-sorted by cell (int32 slots); per
-drop, in cell order, its state read and written back, the 4x4 cells of its gradient stencil
-and its cell's layers read and written back; no arithmetic to speak of.  Two rows: ``drops``
-on one thread, timed in CPU time (``time.process_time``: the machine is shared by several jobs
-on 2 cores, and CPU time survives load better than wall time), and ``drops-2t``, the compiled
+pass over the grid); the drops counting-sorted by cell (int32 slots); per drop, in cell order,
+its state read and written back, the 4x4 cells of its gradient stencil and its cell's layers
+read and written back; no arithmetic to speak of.  Two rows: ``drops`` on one thread, timed in
+CPU time (``time.process_time``: the machine is shared by several jobs on 2 cores, and CPU time
+survives load better than wall time), and ``drops-2t``, the compiled
 path and the limit kernel on numba's 2 threads (the same loops split over cells / drops),
 timed in wall time (``time.perf_counter``) beside the single-threaded numpy path's wall time;
 a loaded machine makes wall times, and most of all 2-thread ones, long.  Each path runs twice,

@@ -514,10 +514,9 @@ def _evaporate(ny, nx, sp, rsp, held, evaporated, h, evaporation, I, starts, noc
 
     The rows' wet layers and occupied cells are counted (a flat loop: it vectorizes); if a
     chunk has fewer than 1 / ``sparse`` of its cells (``sparse`` 0: never; below 1 / (L + 1):
-    always), its cells that hold water or a
-    drop are listed in order in ``wout`` from its first cell on (a second pass, run once as the
-    grid dries), ``wseg[t]`` = (that index, their count; -1: not listed), for _evaporate_wet's
-    next step."""
+    always), its cells that hold water or a drop are listed in order in ``wout`` from its first
+    cell on (a second pass, run once as the grid dries), ``wseg[t]`` = (that index, their count;
+    -1: not listed), for _evaporate_wet's next step."""
     L = len(ltag)
     a = sp * sp
     s2 = 2.0 * sp
