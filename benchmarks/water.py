@@ -147,7 +147,7 @@ def path_child(a) -> None:
             run(*args, cells)
         t = clock() - t0
         fig["wet_cells_per_step"] = round(sum(c.size for c in wet) / len(wet))
-        _paths.report(seconds=t / (a.steps * n0), bytes_per_cell_scratch=bytes_per_cell(s.n_layers), **fig)
+        _paths.report(seconds=t / (a.steps * n0), bytes_per_cell_scratch=bytes_per_cell(s.n_layers, p.footprint), **fig)
         return
     accelerate = a.path == "compiled"
     if accelerate:

@@ -204,6 +204,30 @@ def test_listed_evaporation_visits_only_the_listed_cells(monkeypatch):
     assert (s.held[off, 0] < 1e-6).all()
 
 
+@pytest.mark.parametrize("footprint", ["cell", "disc"])
+def test_crowds_leaving_the_grid_drain_as_on_the_numpy_path(footprint):
+    """Drops of one cell that leave in one step are summed into that cell's drained water and
+    sediment in drop order (as np.bincount): crowds of different volumes and loads at the edge
+    cells, every step of which loses some, give numpy's ledgers bit for bit."""
+    s, d, p = _with(CASES["capacity-cell"](), footprint=footprint)
+    rng = np.random.default_rng(4)
+    k = len(d)
+    edge = rng.integers(0, 3, k)                            # three cells on the right edge
+    d.pos[:, 0] = s.shape[1] - 1 + rng.uniform(0.2, 0.95, k)
+    d.pos[:, 1] = 5.5 + 6 * edge
+    d.vel[:, 0] = rng.uniform(-0.5, 2.0, k)                 # most leave, at different steps
+    d.volume *= rng.uniform(0.5, 1.5, k)
+    d.sediment[:] = rng.uniform(0, 0.01, k)
+    d.kind[:] = 0
+    d.moving[:] = True
+    runs = [_run((s, d, p), acc, steps=6) for acc in (False, True)]
+    _assert_same(*runs)
+    s0 = runs[0][0]
+    cells = (5 + 6 * np.arange(3)) * s.shape[1] + s.shape[1] - 1
+    assert s0.drained[cells].all() and s0.drained_sediment[cells].all()
+    assert s0.drained[cells].sum() > 0.5 * d.volume.sum()
+
+
 def test_compiled_step_keeps_no_grid_sized_temporaries_between_steps():
     from procgen_water import kernels as K
     s, d, p = CASES["thesis"]()
@@ -214,7 +238,7 @@ def test_compiled_step_keeps_no_grid_sized_temporaries_between_steps():
     assert ids == {id(a) for a in (work.sk, work.h, work.counts, work.wet, work.wout)}   # (lists swap)
     assert not work.sk[:, 3].any()                # the deposit columns are left at zero
     assert not work.cell_sk[..., 3].any()
-    assert work.grid_bytes == s.ncell * K.bytes_per_cell(s.n_layers) + 4     # + 1 sort slot
+    assert work.grid_bytes == s.ncell * K.bytes_per_cell(s.n_layers, p.footprint) + 4    # + 1 sort slot
     ids = [id(a) for a in (work.fa, work.fb, work.kept, work.pairs)]
     d = P.step(s, d, p, accelerate=True)
     assert ids == [id(a) for a in (work.fa, work.fb, work.kept, work.pairs)]

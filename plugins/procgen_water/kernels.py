@@ -68,6 +68,7 @@ import numpy as np
 import numba
 from numba import njit, prange
 
+from procgen import arena
 from procgen.pairwise import pairwise_sum
 from procgen.prefetch import prefetch
 
@@ -87,32 +88,41 @@ _NF, _NI = 8, 5
 
 
 class Work:
-    """Scratch reused by every compiled step on one Surface: per key (cell, layer) one 32-byte
-    row (sum, value, phase stamp, deposit sum), the start-of-step height, the counting-sort
-    slots, per thread one grid row's occupied flags, evaporation budgets and tiled capacities,
-    and per-drop / per-pair arrays grown geometrically with the drop count."""
+    """Scratch reused by every compiled step on one Surface: the start-of-step height, the
+    counting-sort slots, the wet-cell lists, per thread one grid row's occupied flags,
+    evaporation budgets and tiled capacities, and per-drop / per-pair arrays grown geometrically
+    with the drop count, each group carved from one allocation (:mod:`procgen.arena`: huge
+    pages).  With a wider footprint than one cell, also per key (cell, layer) one 32-byte row
+    (sum, value, phase stamp, deposit sum); the one-cell footprint keeps its key rows per
+    thread (``cell_sk``) and needs none."""
 
-    def __init__(self, ncell: int, n_layers: int, nx: int) -> None:
-        self.sk = np.zeros((ncell * n_layers, 4))
+    def __init__(self, ncell: int, n_layers: int, nx: int, keyed: bool) -> None:
+        self.ncell, self.n_layers, self.nx = ncell, n_layers, nx
+        self.sk = np.zeros((ncell * n_layers if keyed else 0, 4))
         threads = numba.config.NUMBA_NUM_THREADS            # the most a step can use
-        self.occs = np.zeros((threads, nx), np.int32)       # per thread: a row's occupied cells
-        self.bufs = np.empty((threads, (n_layers + 1) * nx))  # per thread: budgets, capacities
+        (self.h, self.counts, self.wet, self.wout, self.occs, self.bufs) = arena.zeros([
+            (ncell, np.float64),
+            (ncell + 1, np.int32),
+            (ncell, np.int32),                    # the cells that may hold water, in order ...
+            (ncell, np.int32),                    # ... and the next step's list
+            ((threads, nx), np.int32),            # per thread: a row's occupied cells
+            ((threads, (n_layers + 1) * nx), np.float64)])   # per thread: budgets, capacities
         # per thread: one cell's key rows, 128 bytes apart (no line shared: written per cell)
         self.cell_sk = np.zeros((threads, n_layers + 4, 4))
         self.stamps = np.zeros(1)                           # sk's phase stamp
         self.chunks = np.empty(threads + 1, np.int64)       # per thread: its first packed drop
         self.kept = np.empty(threads + 1, np.int64)         # per thread: drops kept; sort band
-        self.h = np.empty(ncell)
-        self.counts = np.empty(ncell + 1, np.int32)
         self.occupied = np.full(1, -1, np.int64)  # cells the last step's drops were in (-1: unknown)
-        self.wet = np.empty(ncell, np.int32)      # the cells that may hold water, in order ...
-        self.wout = np.empty(ncell, np.int32)     # ... and the next step's list
-        self.nwet = np.full(1, -1, np.int64)      # their count (-1: unknown)
+        self.nwet = np.full(1, -1, np.int64)      # the wet-cell list's length (-1: unknown)
         self.wseg = np.zeros((threads, 2), np.int64)   # per thread: its part of wout (first, count)
         self.current_at = -1                      # Surface.steps at which h is current
         self.cap = 0
         self.pcap = 0
         self.grow(1024, 1)
+
+    def fits(self, s: "P.Surface", keyed: bool) -> bool:
+        return ((self.ncell, self.n_layers, self.nx) == (s.ncell, s.n_layers, s.shape[1])
+                and (self.sk.shape[0] > 0 or not keyed))
 
     def grow(self, n: int, k: int) -> None:
         if n <= self.cap and n * k <= self.pcap:
@@ -120,25 +130,27 @@ class Work:
         self.occupied[0] = -1                     # (the last step's cell list is in ib / starts)
         self.cap = max(n, 2 * self.cap)
         self.pcap = self.cap * max(k, 4)
-        self.fa = np.empty((self.cap, _NF))              # packed drops, sorted by start cell
-        self.ia = np.empty((self.cap, _NI), np.int32)
-        self.fb = np.empty((self.cap, _NF))              # packed drops, sorted by end cell
-        self.ib = np.empty((self.cap, _NI), np.int32)
-        self.rk = np.empty((self.cap, 2), np.int32)    # per drop index: sort key, slot
-        self.starts = np.empty(self.cap + 1, np.int32)  # per occupied cell: its first drop
-        self.obud = np.empty(self.cap)                  # per occupied cell: its evaporation budget
-        self.ent = np.empty((self.cap + 1, 4), np.int64)  # per entry: drop, first pair, layer, key
-        self.pairs = np.empty((self.pcap, 2))          # per pair: footprint weight, demand
-        self.pkey = np.empty(self.pcap, np.int64)      # per pair: cell, then key
-        self.touched = np.empty(self.pcap, np.int64)
-        self.dtouched = np.empty(self.pcap, np.int64)
+        (self.fa, self.ia, self.fb, self.ib, self.rk, self.starts, self.obud, self.ent,
+         self.pairs, self.pkey, self.touched, self.dtouched) = arena.zeros([
+            ((self.cap, _NF), np.float64),        # packed drops, sorted by start cell
+            ((self.cap, _NI), np.int32),
+            ((self.cap, _NF), np.float64),        # packed drops, sorted by end cell
+            ((self.cap, _NI), np.int32),
+            ((self.cap, 2), np.int32),            # per drop index: sort key, slot
+            (self.cap + 1, np.int32),             # per occupied cell: its first drop
+            (self.cap, np.float64),               # per occupied cell: its evaporation budget
+            ((self.cap + 1, 4), np.int64),        # per entry: drop, first pair, layer, key
+            ((self.pcap, 2), np.float64),         # per pair: footprint weight, demand
+            (self.pcap, np.int64),                # per pair: cell, then key
+            (self.pcap, np.int64),
+            (self.pcap, np.int64)])
 
     def _drop_arrays(self):
         return (self.fa, self.ia, self.fb, self.ib, self.rk, self.starts, self.obud, self.ent)
 
     @property
     def grid_bytes(self) -> int:
-        return self.sk.nbytes + self.h.nbytes + self.counts.nbytes + self.wet.nbytes + self.wout.nbytes
+        return sum(a.nbytes for a in (self.sk, self.h, self.counts, self.wet, self.wout))
 
     @property
     def bytes_per_drop(self) -> int:
@@ -152,20 +164,19 @@ class Work:
             a.nbytes for a in (self.pairs, self.pkey, self.touched, self.dtouched))
 
 
-def bytes_per_cell(n_layers: int) -> int:
-    """Scratch bytes per grid cell kept by the compiled path (key rows, height, sort slots, two
-    wet-cell lists)."""
-    return 32 * n_layers + 20
+def bytes_per_cell(n_layers: int, footprint: str = "cell") -> int:
+    """Scratch bytes per grid cell kept by the compiled path (height, sort slots, two wet-cell
+    lists; key rows with a footprint wider than one cell)."""
+    return 20 + (32 * n_layers if footprint != "cell" else 0)
 
 
 def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
     """``particles.step`` on the compiled path (same arguments, same result)."""
-    work = s.__dict__.get(_ATTR)
-    if (work is None or work.h.size != s.ncell or work.sk.shape[0] != s.thickness.size
-            or work.occs.shape[1] != s.shape[1]):
-        work = Work(s.ncell, s.n_layers, s.shape[1])
-        s.__dict__[_ATTR] = work
     fp = _FOOTPRINTS[p.footprint]
+    work = s.__dict__.get(_ATTR)
+    if work is None or not work.fits(s, fp != 0):
+        work = Work(s.ncell, s.n_layers, s.shape[1], fp != 0)
+        s.__dict__[_ATTR] = work
     oy, ox, ow = P._disc_offsets(p.brush_radius) if fp == 2 else (np.zeros(1, np.int64),) * 2 + (np.ones(1),)
     k = ox.size if fp == 2 else (4 if fp == 1 else 1)
     n = len(d)
@@ -828,20 +839,30 @@ def _place(F, I, key, slot, placed, pos, vel, volume, sediment, kind, moving, ag
 
 
 @njit(cache=True, nogil=True)
-def _drain(F, I, skey, n, L, sk, stamps, touched, drained, drained_sed):
+def _drain(F, I, skey, n, order, drained, drained_sed):
     """Drained water and sediment of the drops that left (key -1; their rows are ``_move``'s),
-    summed per start cell in drop order, then added."""
-    stamps[0] += 1.0
-    nt = 0
+    summed per start cell in drop order from 0 (as ``np.bincount``), then added.  The few drops
+    that left are listed as sorted (cell, drop) keys in ``order``: no grid-sized scratch, whose
+    pages the first steps on a fresh Surface would fault in along the grid's edges (about 0.5 ms
+    each for the huge pages numpy asks for: 20-50 ms at 512x512x3)."""
+    k = 0
     for i in range(n):
         if skey[i] < 0:
-            key = I[i, CELL] * L
-            nt = _add(sk, stamps[0], touched, nt, key, F[i, VOL])
-            sk[key, 1] += F[i, SED]
-    for t in range(nt):
-        key = touched[t]
-        drained[key // L] += sk[key, 0]
-        drained_sed[key // L] += sk[key, 1]
+            order[k] = np.int64(I[i, CELL]) * n + i
+            k += 1
+    order[:k].sort()
+    o = 0
+    while o < k:
+        c = order[o] // n
+        water = 0.0
+        sed = 0.0
+        while o < k and order[o] // n == c:
+            i = order[o] - c * n
+            water += F[i, VOL]
+            sed += F[i, SED]
+            o += 1
+        drained[c] += water
+        drained_sed[c] += sed
 
 
 @njit(cache=True, nogil=True)
@@ -1314,7 +1335,7 @@ def _step(ny, nx, sp, rsp, base, thickness, held, deposit, evaporated, drained, 
                  moving, age, fa, ia, key, mode == 0, n0, gravity, friction, adh_k, max_speed,
                  stable_speed, max_age)
     if nout:
-        _drain(fa, ia, key, n0, L, sk, stamps, touched, drained, drained_sed)
+        _drain(fa, ia, key, n0, touched, drained, drained_sed)
     # --- the one-cell footprint interacts in end-cell order (ties in drop order: a stable
     # counting sort, skipped when the drops are in that order already); the others in drop order
     unsorted = 0

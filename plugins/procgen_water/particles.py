@@ -50,6 +50,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procgen import arena
 from procgen.accel import MIN_DROPS, kernels
 from procgen.errors import InputError
 
@@ -572,6 +573,9 @@ def _step(s: Surface, d: Drops, p: "WaterDrops") -> Drops:
     return d.in_cell_order(s.shape)
 
 
+_MAPS = ("emitted", "evaporated", "drained", "drained_sediment", "source", "path")   # (ncell,)
+
+
 def make_surface(base: np.ndarray, thickness: np.ndarray, materials, spacing: float = 1.0,
                  held: np.ndarray | None = None) -> Surface:
     """A Surface owning fresh arrays: base (ny, nx), thickness (ny, nx, L), a MaterialTable."""
@@ -581,12 +585,13 @@ def make_surface(base: np.ndarray, thickness: np.ndarray, materials, spacing: fl
     L = t.shape[1]
     if len(materials) != L:
         raise InputError(f"make_surface: {L} thickness layers but {len(materials)} materials")
-    z = lambda: np.zeros(ny * nx)                                      # noqa: E731
-    return Surface(
-        shape=(ny, nx), spacing=float(spacing), base=base.ravel().copy(), thickness=t.copy(),
-        held=np.zeros((ny * nx, L)) if held is None else np.ascontiguousarray(held, float).reshape(ny * nx, L).copy(),
-        deposit=np.zeros((ny * nx, L)), emitted=z(), evaporated=z(), drained=z(),
-        drained_sediment=z(), source=z(), path=z(), **material_arrays(materials))
+    # the maps start at zero and the steps write them sparsely: one allocation (huge pages)
+    w, dep, *maps = arena.zeros([((ny * nx, L), float)] * 2 + [(ny * nx, float)] * 6)
+    if held is not None:
+        w[...] = np.asarray(held, float).reshape(ny * nx, L)
+    return Surface(shape=(ny, nx), spacing=float(spacing), base=base.ravel().copy(),
+                   thickness=t.copy(), held=w, deposit=dep, **dict(zip(_MAPS, maps)),
+                   **material_arrays(materials))
 
 
 def material_arrays(materials) -> dict[str, np.ndarray]:

@@ -9,7 +9,7 @@ from typing import Iterable
 
 import numpy as np
 
-from procgen import FieldSpec, Grid, PointSet, State
+from procgen import FieldSpec, Grid, PointSet, State, arena
 from procgen_layers.materials import MaterialTable
 from procgen_layers.stack import THICKNESS, load_table
 
@@ -60,12 +60,13 @@ def _contig(g: Grid, name: str) -> np.ndarray:
 
 
 def ensure_water_fields(g: Grid, L: int) -> None:
-    for name, (units, doc) in CELL_MAPS.items():
-        if name not in g:
-            g.add_field(name, np.zeros(g.shape), at="cell", units=units, doc=doc)
-    for name, (units, doc) in LAYER_MAPS.items():
-        if name not in g:
-            g.add_field(name, np.zeros(g.shape + (L,)), at="cell", units=units, doc=doc)
+    """The water maps the grid lacks, at zero; the drops write them sparsely, so they share one
+    allocation (:mod:`procgen.arena`: huge pages)."""
+    shapes = {**dict.fromkeys(CELL_MAPS, g.shape), **dict.fromkeys(LAYER_MAPS, g.shape + (L,))}
+    new = [name for name in shapes if name not in g]
+    for name, arr in zip(new, arena.zeros([(shapes[name], np.float64) for name in new])):
+        units, doc = {**CELL_MAPS, **LAYER_MAPS}[name]
+        g.add_field(name, arr, at="cell", units=units, doc=doc)
 
 
 def surface_view(state: State, grid: str) -> tuple[Grid, Surface, MaterialTable]:
