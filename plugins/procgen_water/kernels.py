@@ -68,7 +68,7 @@ import numpy as np
 import numba
 from numba import njit, prange
 
-from procgen import arena
+from procgen import arena, roots
 from procgen.pairwise import pairwise_sum
 from procgen.prefetch import prefetch
 
@@ -214,6 +214,9 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
 
 # --------------------------------------------------------------------------------------------
 # helpers (each mirrors one numpy expression of particles.py)
+
+_cbrt = njit(cache=True, nogil=True, inline="always")(roots.cbrt)
+
 
 @njit(cache=True, nogil=True, inline="always")
 def _clip(x, lo, hi):
@@ -768,12 +771,12 @@ def _move(ny, nx, sp, rsp, h, thickness, roughness, pos, vel, volume, sediment, 
         top = _top(thickness, cc, L)
         mu = roughness[top] if top >= 0 else 0.0
         vol = max(F[i, VOL], 1e-300)
-        r = np.cbrt(3.0 * vol / (4.0 * np.pi))
+        r = _cbrt(3.0 * vol / (4.0 * np.pi))
         adh = adh_k / r
         grip = mu * (gravity / math.sqrt(1.0 + s2) + adh)
         vx = F[i, VX] * (1.0 - friction) + ax
         vy = F[i, VY] * (1.0 - friction) + ay
-        spd = math.hypot(vx, vy)
+        spd = math.sqrt(vx * vx + vy * vy)
         keep = 1.0 - grip / spd if spd > grip else 0.0
         vx *= keep
         vy *= keep
@@ -788,7 +791,7 @@ def _move(ny, nx, sp, rsp, h, thickness, roughness, pos, vel, volume, sediment, 
         F[i, DH] = _height_at(h, _clip(nxp, 0.0, hi_x), _clip(nyp, 0.0, hi_y), nx, ny) \
             - _height_at(h, x, y, nx, ny)
         ag = I[i, AGE] + 1
-        stop = (spd < stable_speed * sp) and (math.hypot(ax, ay) <= grip)
+        stop = (spd < stable_speed * sp) and (math.sqrt(ax * ax + ay * ay) <= grip)
         if max_age > 0:
             stop = stop or ag >= max_age
         F[i, X] = nxp
@@ -830,7 +833,7 @@ def _place(F, I, key, slot, placed, pos, vel, volume, sediment, kind, moving, ag
         G[r, VY] = vy
         G[r, VOL] = volume[i]
         G[r, SED] = sediment[i]
-        G[r, SPD] = math.hypot(vx, vy) if (vx != 0.0 or vy != 0.0) else 0.0
+        G[r, SPD] = math.sqrt(vx * vx + vy * vy)
         G[r, DH] = 0.0
         J[r, KIND] = kind[i]
         J[r, MOV] = 0
@@ -982,7 +985,7 @@ def _interact_cells(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_ra
         ms = 0.0                                # max(slope, min_slope) at the cell
         if capacity_on:
             gx, gy = _grad(h, c0, nx, ny, sp)
-            ms = max(math.hypot(gx, gy), min_slope)
+            ms = max(math.sqrt(gx * gx + gy * gy), min_slope)
         # --- absorption into (c0, top0), deposition by concentration -----------------------------
         if top0 >= 0 and absorbs[top0]:
             cap = capacity[top0] * thickness[c0, top0] * a
@@ -1228,7 +1231,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             rm = max_concentration * F[i, VOL] - F[i, SED]
             if capacity_on:
                 gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
-                ms = max(math.hypot(gx, gy), min_slope)
+                ms = max(math.sqrt(gx * gx + gy * gy), min_slope)
                 rm = min(rm, _drop_capacity(F, I, i, ms, cap_k, max_age, fade) - F[i, SED])
                 rm = min(rm, max(-F[i, DH], 0.0) * a)
             rm = max(rm, 0.0)
@@ -1281,7 +1284,7 @@ def _interact(ny, nx, sp, thickness, held, tf, hf, df, path, absorption_rate, ca
             nd = 0
             for i in range(lo, hi):
                 gx, gy = _grad(h, I[i, CELL], nx, ny, sp)
-                ms = max(math.hypot(gx, gy), min_slope)
+                ms = max(math.sqrt(gx * gx + gy * gy), min_slope)
                 extra = max(F[i, SED] - _drop_capacity(F, I, i, ms, cap_k, max_age, fade), 0.0) * deposition_rate
                 if not I[i, MOV]:
                     extra = F[i, SED]

@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from procgen import arena
+from procgen import arena, roots
 from procgen.accel import MIN_DROPS, kernels
 from procgen.errors import InputError
 
@@ -291,6 +291,14 @@ def _height_at(h: np.ndarray, pos: np.ndarray, shape: tuple[int, int]) -> np.nda
     return np.sum(h[cells] * w, axis=1)
 
 
+def _length(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """|(x, y)| as sqrt(x^2 + y^2): IEEE-754 fixes each of these operations to the bit, where
+    ``hypot`` is the C library's own (glibc changed its algorithm in 2.35), so the compiled
+    path (kernels.py) and every machine get the same numbers.  Speeds, accelerations and slopes
+    are far from where the squares over- or underflow."""
+    return np.sqrt(x * x + y * y)
+
+
 def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
          h: np.ndarray | None = None) -> tuple[Drops, np.ndarray, np.ndarray]:
     """Advance moving drops one step; drain those that leave.
@@ -300,7 +308,7 @@ def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
     """
     ny, nx = s.shape
     m = np.flatnonzero(d.moving)
-    speed = np.hypot(d.vel[:, 0], d.vel[:, 1])
+    speed = _length(d.vel[:, 0], d.vel[:, 1])
     dh = np.zeros(len(d))
     if m.size == 0:
         return d, speed, dh
@@ -311,16 +319,16 @@ def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
     s2 = gxi * gxi + gyi * gyi
     ax = -p.gravity * gxi / (1.0 + s2)
     ay = -p.gravity * gyi / (1.0 + s2)
-    amag = np.hypot(ax, ay)
+    amag = _length(ax, ay)
     cell = _cell_of(pos, s.shape)
     top = s.top_layer(cell)
     mu = np.where(top >= 0, s.roughness[np.maximum(top, 0)], 0.0)
     vol = np.maximum(d.volume[m], 1e-300)
-    r = np.cbrt(3.0 * vol / (4.0 * np.pi))
+    r = roots.cbrt(3.0 * vol / (4.0 * np.pi))
     adh = p.adhesion * 0.75 * np.sin(np.radians(p.contact_angle)) ** 2 / r
     grip = mu * (p.gravity / np.sqrt(1.0 + s2) + adh)          # Coulomb deceleration
     v = d.vel[m] * (1.0 - p.friction) + np.stack([ax, ay], axis=1)
-    sp = np.hypot(v[:, 0], v[:, 1])
+    sp = _length(v[:, 0], v[:, 1])
     with np.errstate(invalid="ignore", divide="ignore"):
         keep = np.where(sp > grip, 1.0 - grip / np.where(sp > 0, sp, 1.0), 0.0)
     v *= keep[:, None]
@@ -465,7 +473,7 @@ def interact(s: Surface, d: Drops, p: "WaterDrops", speed: np.ndarray, gx: np.nd
         per_drop = np.bincount(pd, weights=demand, minlength=ei.size)
         room = p.max_concentration * d.volume[ei] - d.sediment[ei]
         if p.sediment_capacity is not None:
-            slope = np.hypot(gx.ravel()[cell[ei]], gy.ravel()[cell[ei]])
+            slope = _length(gx.ravel()[cell[ei]], gy.ravel()[cell[ei]])
             capd = p.sediment_capacity * d.volume[ei] * speed[ei] * np.maximum(slope, p.min_slope)
             capd = capd * _fade(d.age[ei], p)
             room = np.minimum(room, capd - d.sediment[ei])
@@ -507,7 +515,7 @@ def interact(s: Surface, d: Drops, p: "WaterDrops", speed: np.ndarray, gx: np.nd
             d.kind[ei[got_any]] = cand[got_any]
     # --- deposition of sediment beyond the capacity (classic terrain erosion) --------------
     if p.sediment_capacity is not None:
-        slope = np.hypot(gx.ravel()[cell], gy.ravel()[cell])
+        slope = _length(gx.ravel()[cell], gy.ravel()[cell])
         capd = p.sediment_capacity * d.volume * speed * np.maximum(slope, p.min_slope) * _fade(d.age, p)
         extra = np.maximum(d.sediment - capd, 0.0) * p.deposition_rate
         extra = np.where(d.moving, extra, d.sediment)      # a stopped drop lays its whole load
