@@ -62,11 +62,11 @@ def _contig(g: Grid, name: str) -> np.ndarray:
 def ensure_water_fields(g: Grid, L: int) -> None:
     """The water maps the grid lacks, at zero; the drops write them sparsely, so they share one
     allocation (:mod:`procgen.arena`: huge pages)."""
-    shapes = {**dict.fromkeys(CELL_MAPS, g.shape), **dict.fromkeys(LAYER_MAPS, g.shape + (L,))}
-    new = [name for name in shapes if name not in g]
-    for name, arr in zip(new, arena.zeros([(shapes[name], np.float64) for name in new])):
-        units, doc = {**CELL_MAPS, **LAYER_MAPS}[name]
-        g.add_field(name, arr, at="cell", units=units, doc=doc)
+    maps = {**CELL_MAPS, **LAYER_MAPS}
+    new = [name for name in maps if name not in g]
+    shapes = [(g.shape + ((L,) if name in LAYER_MAPS else ()), np.float64) for name in new]
+    for name, arr in zip(new, arena.zeros(shapes)):
+        g.add_field(name, arr, at="cell", units=maps[name][0], doc=maps[name][1])
 
 
 def surface_view(state: State, grid: str) -> tuple[Grid, Surface, MaterialTable]:
