@@ -4,7 +4,8 @@ A benchmark calls :func:`compare` with its workload names; for every name it sta
 again as ``script --path P --part NAME`` for P in numpy / compiled / limit, one after the other
 in the same run (so the machine's load hits all of them alike), and prints one table row:
 workload, numpy time, compiled time, ratio, the trivial-kernel limit, the distance of the
-compiled path from it, and each child's peak RSS.  A child measures with :func:`report`.
+compiled path from it, and each child's peak RSS.  A child measures with :func:`report`; where
+both paths' children report a ``hash`` of their results, the run fails unless the hashes agree.
 """
 from __future__ import annotations
 
@@ -73,6 +74,12 @@ def compare(parts: list[tuple[str, str]], argv: list[str], rounds: int = 2) -> l
         extra = {k: v for k, v in c.items() if k not in ("seconds", "peak_rss")}
         print(f"  {r['part']}: compiled-path details {json.dumps(extra)}; "
               f"numpy details {json.dumps({k: v for k, v in r['numpy'].items() if k not in ('seconds', 'peak_rss')})}")
+    differ = [r["part"] for r in rows if "hash" in r["compiled"] and r["compiled"]["hash"] != r["numpy"]["hash"]]
+    hashed = sum("hash" in r["compiled"] for r in rows)
+    if differ:
+        raise SystemExit(f"the numpy and compiled paths' results differ: {', '.join(differ)}")
+    if hashed:
+        print(f"both paths' results are identical (hashes agree) in {hashed} of {len(rows)} workloads")
     return rows
 
 
