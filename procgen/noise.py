@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import portable
 from .errors import InputError
 
 
@@ -30,7 +31,7 @@ def fbm_spectral(rng: np.random.Generator, shape: tuple[int, int], hurst: float 
     fx = np.fft.rfftfreq(px)[None, :]
     f = np.sqrt(fx * fx + fy * fy)
     f[0, 0] = 1.0
-    amp = f ** (-(hurst + 1.0))
+    amp = portable.power(f, -(hurst + 1.0))   # not np.power: the same bits on every CPU
     amp[0, 0] = 0.0
     spec = amp * (rng.standard_normal((py, px // 2 + 1)) + 1j * rng.standard_normal((py, px // 2 + 1)))
     field = np.fft.irfft2(spec, s=(py, px))

@@ -63,7 +63,9 @@ def test_triangles_are_the_global_delaunay_triangles(made):
     for v in np.flatnonzero(ready)[:: 97]:
         ring = made.neighbours(v)
         ang = np.arctan2(*(p[ring] - p[v])[:, ::-1].T)
-        assert np.all(np.diff(ang) > 0) and set(ring) == set(e[e[:, 0] == v, 1]) | set(e[e[:, 1] == v, 0])
+        turn = np.diff(np.r_[ang, ang[0]]) % (2 * np.pi)                  # counter-clockwise, once round
+        assert np.all(turn > 0) and np.isclose(turn.sum(), 2 * np.pi)
+        assert set(ring) == set(e[e[:, 0] == v, 1]) | set(e[e[:, 1] == v, 0])
 
 
 def test_tiles_do_not_depend_on_the_order_they_are_made():

@@ -12,6 +12,7 @@ from typing import Callable
 import numpy as np
 from shapely.geometry import Polygon
 
+from procgen import portable
 from procgen.accel import MIN_SNAXELS, kernels
 from procgen.geometry import signed_area
 
@@ -158,7 +159,7 @@ class CloudGrowth:
         if copy_of is None:   # A8: independent draws for the base value and the shape speed
             self.vb[cid], self.vs[cid] = self.rng_speed.uniform(self.cfg.v_min, self.cfg.v_max, 2)
             j = self.cfg.limit_jitter
-            self.jitter[cid] = np.exp(self.rng_jitter.uniform(-j, j)) if j > 0 else 1.0
+            self.jitter[cid] = float(portable.exp(self.rng_jitter.uniform(-j, j))) if j > 0 else 1.0
         else:
             self.vb[cid], self.vs[cid] = self.vb[copy_of], self.vs[copy_of]
             self.jitter[cid] = self.jitter[copy_of]
@@ -478,7 +479,7 @@ class CloudGrowth:
             a = np.asarray(self.guide(mid), np.float64)
             span = float(a.max() - a.min())
             score = (a - a.min()) / span if span > 0 else np.ones(len(a))
-        w = np.exp(bias * (np.clip(score, 0.0, 1.0) - 1.0))
+        w = portable.exp(bias * (np.clip(score, 0.0, 1.0) - 1.0))
         return w / w.sum()
 
     # -- outputs ----------------------------------------------------------------------------

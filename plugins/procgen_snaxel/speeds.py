@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from procgen import portable
+
 
 def base_speed(s: np.ndarray, run_start_s: np.ndarray, run_len: np.ndarray, run_vb: np.ndarray,
                perimeter: float) -> np.ndarray:
@@ -58,7 +60,7 @@ def linear_profile(u: np.ndarray, vmax: np.ndarray) -> np.ndarray:
 
 def effect_coefficient(t: np.ndarray, r: float) -> np.ndarray:
     """Eq 3.5: k = exp(-r t) fades the base speed as a snaxel travels."""
-    return np.exp(-r * t)
+    return portable.exp(-r * t)
 
 
 def blend(bv: np.ndarray, lv: np.ndarray, k: np.ndarray, w_s: float) -> np.ndarray:

@@ -15,14 +15,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from procgen import TriMesh
+from procgen import TriMesh, portable
 from procgen.errors import InputError
 
 
 def angular_rings(points: np.ndarray, src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Directed edges (src -> dst) sorted by source, then counter-clockwise by angle."""
-    ang = np.arctan2(points[dst, 1] - points[src, 1], points[dst, 0] - points[src, 0]) + np.pi  # [0, 2 pi]
-    order = np.argsort(src * 8.0 + ang)        # by vertex, then CCW angle (angles < 8)
+    d = points[dst] - points[src]
+    a = portable.pseudo_angle(d[:, 0], d[:, 1])
+    a = np.where(a > 2.0, a - 2.0, a + 2.0)    # each ring starts just past -x and ends on it
+    order = np.argsort(src * 8.0 + a)          # by vertex, then CCW (keys < 8)
     return src[order], dst[order]
 
 

@@ -5,7 +5,7 @@ from typing import Any
 
 import numpy as np
 
-from procgen import Exporter, InputError, PointSet
+from procgen import Exporter, InputError, PointSet, portable
 
 
 def drops_svg(domain: PointSet, *, stem: str = "", provenance: dict[str, Any] | None = None,
@@ -30,7 +30,8 @@ def drops_svg(domain: PointSet, *, stem: str = "", provenance: dict[str, Any] | 
     mov = np.asarray(domain["drop__moving"], bool)[sel]
     vel = np.asarray(domain["drop__velocity"], float)[sel]
     vol = np.asarray(domain["drop__volume"], float)[sel]
-    r = np.cbrt(np.maximum(vol, 0) * 3 / (4 * np.pi)) * scale * 0.8
+    wet = vol > 0
+    r = np.where(wet, portable.cbrt(np.where(wet, vol, 1.0) * 3 / (4 * np.pi)), 0.0) * scale * 0.8
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w:.0f}" height="{h:.0f}" '
            f'viewBox="0 0 {w:.2f} {h:.2f}">',
            "<defs><radialGradient id='dome' cx='35%' cy='35%' r='65%'>"

@@ -65,7 +65,7 @@ at 6-8 us each in the benchmark's virtual machine (53 ms, the step itself 12 ms)
 pages 16-47 ms.  The drain sorts its few (cell, drop) keys instead of summing into grid-sized
 key rows, whose pages along the grid's edges it was the first to touch.
 
-The drop's radius is :func:`procgen.roots.cbrt` and every length sqrt(x^2 + y^2), on both
+The drop's radius is :func:`procgen.portable.cbrt` and every length sqrt(x^2 + y^2), on both
 paths: IEEE-754 fixes those operations to the bit, where libm's ``cbrt`` and ``hypot`` were
 function calls (each made the compiled code save and restore every live floating-point
 register) and ``np.cbrt`` is not libm's on AVX-512 machines.
@@ -78,7 +78,7 @@ import numpy as np
 import numba
 from numba import njit, prange
 
-from procgen import arena, roots
+from procgen import arena, portable
 from procgen.pairwise import pairwise_sum
 from procgen.prefetch import prefetch
 
@@ -225,7 +225,7 @@ def step(s: "P.Surface", d: "P.Drops", p, continued: bool = False) -> "P.Drops":
 # --------------------------------------------------------------------------------------------
 # helpers (each mirrors one numpy expression of particles.py)
 
-_cbrt = njit(cache=True, nogil=True, inline="always")(roots.cbrt)
+_cbrt = njit(cache=True, nogil=True, inline="always")(portable.cbrt)
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -10,11 +10,13 @@ the grid, patches from smooth noise), ``rect`` [x0, y0, x1, y1] (fractions of th
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from procgen import portable
 from procgen.errors import InputError
 from procgen_layers.materials import MaterialTable, split_layer_specs
 
@@ -134,12 +136,12 @@ def base_surface(kind: str, shape: tuple[int, int], spacing: float, rng: np.rand
     yy, xx = np.mgrid[0:ny, 0:nx].astype(float)
     z = np.zeros(shape)
     if kind == "tilt" or tilt_deg:
-        z += np.tan(np.radians(tilt_deg)) * (yy + 0.5) * spacing      # high at the top row (max y)
+        z += math.tan(math.radians(tilt_deg)) * (yy + 0.5) * spacing  # high at the top row (max y)
     if kind in ("fbm", "mountain"):
         f = smooth(midpoint_displacement(shape, hurst, rng), smoothness)
         if kind == "mountain":
             r = np.hypot((xx + 0.5) / nx - 0.5, (yy + 0.5) / ny - 0.5) / 0.5
-            dome = np.exp(-(r / 0.55) ** 2)            # smooth: no ring where a clipped dome ends
+            dome = portable.exp(-(r / 0.55) ** 2)      # smooth: no ring where a clipped dome ends
             f = dome * (1.0 + 0.5 * f) + 0.12 * f
             f = f - f.min()
             f = f / f.max() if f.max() > 0 else f

@@ -6,8 +6,8 @@ The fBm itself is the core's diamond-square (``procgen.noise``); here are the Ga
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
+from procgen import portable
 from procgen.errors import InputError
 from procgen.noise import midpoint_displacement as _core_md
 
@@ -25,7 +25,7 @@ def smooth(field: np.ndarray, sigma: float) -> np.ndarray:
     """Gaussian blur of ``sigma`` cells (the thesis's 'smoothness coefficient'); 0 = unchanged."""
     if sigma <= 0:
         return np.asarray(field, dtype=float)
-    return ndimage.gaussian_filter(np.asarray(field, dtype=float), sigma, mode="reflect")
+    return portable.gaussian_filter(field, sigma, mode="reflect")
 
 
 def rank_normalise(field: np.ndarray) -> np.ndarray:

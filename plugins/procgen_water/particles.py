@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from procgen import arena, roots
+from procgen import arena, portable
 from procgen.accel import MIN_DROPS, kernels
 from procgen.errors import InputError
 
@@ -324,7 +324,7 @@ def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
     top = s.top_layer(cell)
     mu = np.where(top >= 0, s.roughness[np.maximum(top, 0)], 0.0)
     vol = np.maximum(d.volume[m], 1e-300)
-    r = roots.cbrt(3.0 * vol / (4.0 * np.pi))
+    r = portable.cbrt(3.0 * vol / (4.0 * np.pi))
     adh = p.adhesion * 0.75 * np.sin(np.radians(p.contact_angle)) ** 2 / r
     grip = mu * (p.gravity / np.sqrt(1.0 + s2) + adh)          # Coulomb deceleration
     v = d.vel[m] * (1.0 - p.friction) + np.stack([ax, ay], axis=1)

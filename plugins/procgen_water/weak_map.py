@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from procgen import portable
 from procgen.errors import InputError
 
 from .noise import rank_normalise
@@ -46,7 +47,7 @@ def weakness_score(shape: tuple[int, int], rng: np.random.Generator, *, regroup:
     if height is not None and altitude_weight > 0:
         score = (1 - altitude_weight) * score + altitude_weight * (1.0 - rank_normalise(height))
     if trace is not None and trace_weight > 0:
-        tr = np.log1p(np.maximum(np.asarray(trace, dtype=float), 0.0))
+        tr = portable.log(1.0 + np.maximum(np.asarray(trace, dtype=float), 0.0))
         if tr.max() > 0:
             score = (1 - trace_weight) * score + trace_weight * tr / tr.max()
     return rank_normalise(score)

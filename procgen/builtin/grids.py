@@ -45,7 +45,8 @@ class FractalNoise(RuleBase):
         h = self.offset + self.amplitude * base
         if self.dome > 0:
             yy, xx = np.meshgrid(np.linspace(-1, 1, self.ny), np.linspace(-1, 1, self.nx), indexing="ij")
-            h = h + self.dome * np.clip(1.0 - np.sqrt(xx ** 2 + yy ** 2), 0.0, None) ** 1.5
+            c = np.clip(1.0 - np.sqrt(xx ** 2 + yy ** 2), 0.0, None)
+            h = h + self.dome * c * np.sqrt(c)       # c ** 1.5 (np.power's bits vary by CPU)
         g = Grid(shape, self.spacing)
         g.add_field("surface__height", h, at="cell", units="length", doc="fractal height")
         state.add_domain(self.grid, g)

@@ -22,6 +22,7 @@ from typing import ClassVar
 import numpy as np
 from scipy import ndimage
 
+from .. import portable
 from ..data import builtin_rules_dir
 from ..domains import Grid, TriMesh
 from ..errors import InputError
@@ -59,7 +60,7 @@ def resample(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     factor = (shape[0] / a.shape[0], shape[1] / a.shape[1])
     sigma = [max(0.0, (1.0 / f - 1.0) / 2.0) for f in factor] + [0.0] * (a.ndim - 2)
     if any(sigma):
-        a = ndimage.gaussian_filter(a, sigma, mode="nearest")
+        a = portable.gaussian_filter(a, sigma, mode="nearest")
     zoom = list(factor) + [1.0] * (a.ndim - 2)
     out = ndimage.zoom(a, zoom, order=1, mode="nearest", grid_mode=True)
     return out[: shape[0], : shape[1]]
