@@ -7,8 +7,8 @@ process turns one last bit into a different picture: a snaxel cloud's births and
 decided by thresholds, and the same recipe and seed grew two different clouds on an AVX-512 and
 on another x86 machine.  The functions here are made of +, -, *, /, comparisons and integer
 operations on the bits, which IEEE-754 fixes to the last bit, so a process that uses them gives
-the same bytes on every machine.  They cost a few numpy passes more than numpy's own; use them
-where a value decides something or reaches a file, and numpy's where it only shades a picture.
+the same bytes on every machine.  They cost 20-30 ns an element, 7-10 times numpy's own: use
+them where a value decides something or reaches a file, numpy's where it only shades a picture.
 
 The methods are the classic table-free ones (Cody & Waite's argument reduction; the series of
 exp and of log(1 + f) = 2 atanh(f / (2 + f)) after it), with Taylor coefficients (exact
@@ -170,7 +170,7 @@ def power(x, y) -> np.ndarray:
 def pseudo_angle(dx, dy) -> np.ndarray:
     """A stand-in for the angle of (dx, dy) that orders directions as ``arctan2`` does, from
     basic operations only: in [0, 4), counter-clockwise from +x, one unit per quadrant
-    (dy / (|dx| + |dy|) within each), exact where directions coincide.  For sorting around a
+    (dy / (|dx| + |dy|) within each), exact on the axes and diagonals.  For sorting around a
     vertex, where ``arctan2``'s last bits differ between machines."""
     dx = np.asarray(dx, dtype=np.float64)
     dy = np.asarray(dy, dtype=np.float64)

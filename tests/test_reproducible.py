@@ -1,6 +1,11 @@
 """Same recipe + same seed = byte-identical files, across every family (quick gallery settings)."""
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+
 import pytest
 
 from procgen.gallery import load_gallery, overrides_for
@@ -31,13 +36,10 @@ def test_the_same_bytes_whichever_simd_numpy_picks(host, tmp_path):
     """numpy dispatches exp, log, power ... to SIMD code chosen for the CPU at import; a child
     process with every dispatched feature disabled (NPY_DISABLE_CPU_FEATURES) stands in for an
     older machine and must write the same bytes as this process."""
-    import json
-    import os
-    import subprocess
-    import sys
-
-    from numpy._core import _multiarray_umath as mu
-
+    try:
+        from numpy._core import _multiarray_umath as mu      # numpy >= 2
+    except ImportError:
+        from numpy.core import _multiarray_umath as mu       # numpy 1.26
     extra = [f for f in mu.__cpu_dispatch__ if mu.__cpu_features__.get(f)]
     if not extra:
         pytest.skip("this CPU runs numpy's baseline code only: nothing to compare")
