@@ -7,7 +7,7 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from .domains import Domain, Grid, PointSet, Polylines, TriMesh, register_domain_kind
-from .errors import InputError, PluginError, ProcgenError, RecipeError
+from .errors import InputError, MissingExtra, PluginError, ProcgenError, RecipeError
 from .exchange import Exporter, FieldName, write
 from .fields import FieldSpec
 from .hookspecs import hookimpl, hookspec
@@ -20,7 +20,8 @@ from .state import State, StepRecord
 
 __all__ = [
     "__version__", "Domain", "Grid", "PointSet", "Polylines", "TriMesh", "register_domain_kind",
-    "ProcgenError", "RecipeError", "PluginError", "InputError", "Exporter", "FieldName", "write", "FieldSpec",
+    "ProcgenError", "RecipeError", "PluginError", "InputError", "MissingExtra", "Exporter", "FieldName",
+    "write", "FieldSpec",
     "hookimpl", "hookspec", "param", "PluginHost", "get_plugin_manager", "Recipe", "check_recipe",
     "load_recipe", "Rule", "RuleBase", "RunResult", "run", "State", "StepRecord",
 ]

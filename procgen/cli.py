@@ -7,19 +7,23 @@ import os
 import sys
 import textwrap
 from pathlib import Path
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 from .errors import ProcgenError
+
+if TYPE_CHECKING:
+    from .recipes import Recipe
 
 EPILOG = """\
 examples:
   procgen gallery                                   render every built-in gallery entry
   procgen run demo/basics --out out/basics          run a built-in recipe, write its files
-  procgen run my.toml --seed 3 --set steps.1.params.radius=0.01
+  procgen run my.toml --seed 3 --set steps.0.params.radius=0.01
   procgen check my.toml                             validate a recipe without running it
   procgen rules list                                every registered rule
   procgen rules show points.poisson_disk            parameters, ranges, units, fields
-  procgen recipes list                              built-in and plugin recipes
+  procgen recipes list                              built-in and plugin recipes, one line each
+  procgen recipes show clouds/fig-4-3a              figure, description, steps and outputs
   procgen plugins                                   loaded plugins, and why a broken one failed
   procgen sweep demo/basics --grid "steps.0.params.radius=0.05,0.1" --seeds 1-4
   procgen new-plugin lichen --dir ~/src              start an outside plugin package
@@ -49,7 +53,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, help="override the recipe's seed")
     r.add_argument("--out", type=Path, help="output folder (default: out/<recipe name>)")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a recipe value, e.g. steps.1.params.radius=0.01 (repeatable)")
+                   help="override a recipe value, e.g. steps.0.params.radius=0.01 (repeatable)")
     r.add_argument("--state", action="store_true", help="also write state.npz (every field)")
     r.add_argument("--progress", choices=("auto", "on", "off"), default="auto", help="progress bars")
 
@@ -64,9 +68,11 @@ def _parser() -> argparse.ArgumentParser:
     show = ru_sub.add_parser("show", help="one rule's parameters, ranges, units and fields")
     show.add_argument("name")
 
-    rc = cmd("recipes", "List built-in and plugin recipes.", "procgen recipes list")
-    rc_sub = rc.add_subparsers(dest="recipes_cmd", metavar="list")
-    rc_sub.add_parser("list", help="every recipe name")
+    rc = cmd("recipes", "List built-in and plugin recipes, or show one.", "procgen recipes show demo/basics")
+    rc_sub = rc.add_subparsers(dest="recipes_cmd", metavar="list|show")
+    rc_sub.add_parser("list", help="every recipe with its one-line description")
+    rshow = rc_sub.add_parser("show", help="one recipe's figure, description, steps and outputs")
+    rshow.add_argument("name", help="a recipe name (procgen recipes list) or a .toml file")
 
     cmd("plugins", "List plugins, their rules, and the reason a broken plugin failed.", "procgen plugins")
     cmd("exporters", "List output formats and the domains they write.", "procgen exporters")
@@ -83,7 +89,7 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--scheduler", metavar="ADDRESS",
                    help="render on a dask.distributed cluster (tcp://host:8786); needs the dask extra")
     sw = cmd("sweep", "Run a recipe over a grid of parameter values and seeds; write summary.csv.",
-             'procgen sweep clouds/fig-4-3a --grid "steps.2.params.n_c=2,4,8" --seeds 1-100')
+             'procgen sweep clouds/fig-4-3a --grid "steps.grow.params.n_c=2,4,8" --seeds 1-100')
     sw.add_argument("recipe")
     sw.add_argument("--grid", action="append", default=[], metavar="KEY=V1,V2,...",
                     help="a parameter axis (repeatable; the sweep is their product)")
@@ -151,8 +157,8 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         print(f"wrote {len(result.files)} files to {out}/")
         for f in sorted(result.files):
             print(f"  {out / f}")
-        for key, value in sorted(result.state.reports.items()):
-            print(f"  {key} = {value}")
+        for key, value in sorted(result.state.reports.items()):   # series are in run.json
+            print(f"  {key} = {f'({len(value)} values in run.json)' if isinstance(value, list) else value}")
         return 0
     if args.command == "rules":
         if args.rules_cmd == "show":
@@ -163,11 +169,19 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"{name:<{width}}  {cls.summary()}")
         return 0
     if args.command == "recipes":
-        from .recipes import list_recipes, rules_missing
+        from .recipes import list_recipes, load_recipe, rules_missing
 
-        for name, path in list_recipes(host).items():
+        if args.recipes_cmd == "show":
+            print(describe_recipe(load_recipe(args.name, host)))
+            return 0
+        recipes = list_recipes(host)
+        width = max((len(n) for n in recipes), default=10)
+        for name, path in recipes.items():
             missing = rules_missing(path, host)      # a chain through a disabled family
-            print(f"{name}  (needs {', '.join(missing)}: plugin disabled or not installed)" if missing else name)
+            text = (f"(needs {', '.join(missing)}: plugin disabled or not installed)" if missing
+                    else recipe_summary(path))
+            line = f"{name:<{width}}  {text}".rstrip()
+            print(textwrap.shorten(line, _width(), placeholder=" ...") if sys.stdout.isatty() else line)
         return 0
     if args.command == "plugins":
         for s in host.statuses:
@@ -204,7 +218,7 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         out = args.out or Path("out") / f"sweep-{Path(args.recipe).stem}"
         results = sweep(args.recipe, args.grid, parse_seeds(args.seeds), out, jobs=args.jobs,
                         scheduler=args.scheduler, force=args.force)
-        failed = [r for r in results if r.status == "failed"]
+        failed = [r for r in results if r.status in ("failed", "unavailable")]
         done = sum(r.status == "done" for r in results)
         print(f"sweep: {done} run, {len(results) - done - len(failed)} up to date, {len(failed)} failed "
               f"-> {out / 'summary.csv'}")
@@ -224,24 +238,70 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return 2
 
 
+def recipe_summary(path: Path) -> str:
+    """One line for ``procgen recipes list``: the recipe's description, its figure if it names none."""
+    from .recipes import read_toml
+
+    try:
+        meta = read_toml(path).get("recipe", {})
+    except ProcgenError as exc:
+        return f"(unreadable: {_one_line(str(exc))})"
+    text = str(meta.get("description", ""))
+    figure = str(meta.get("figure", ""))
+    return f"{text} [{figure}]" if figure and figure not in text else text
+
+
+def describe_recipe(recipe: "Recipe") -> str:
+    """The text of ``procgen recipes show``: figure, description, seed, steps with parameters, outputs."""
+    meta = recipe.meta
+    lines = [f"{recipe.name}  ({recipe.source})"]
+    for key in ("figure", "description", "caption"):
+        if meta.get(key):
+            lines.append(textwrap.fill(f"{key}: {meta[key]}", _width(), subsequent_indent="  "))
+    lines += [f"seed: {recipe.seed}", "", "steps:"]
+    for st in recipe.steps:
+        label = f" [{st.id}]" if st.id else ""
+        runs = "until stable" if st.until_stable else f"x{st.iterations}"
+        lines.append(f"  {st.index}{label} {st.rule.name} {runs}")
+        if st.params:
+            params = ", ".join(f"{k}={json.dumps(v, default=str)}" for k, v in st.params.items())
+            lines.append(textwrap.fill(params, _width(), initial_indent="      ", subsequent_indent="      "))
+    lines += ["", "outputs:"]
+    lines += [f"  {o.file:<28} {o.format} of {o.domain}" for o in recipe.outputs]
+    return "\n".join(lines)
+
+
+def _width() -> int:
+    """The terminal's width (80 off a terminal), never under 60 columns."""
+    import shutil
+
+    return max(60, shutil.get_terminal_size((80, 24)).columns - 1)
+
+
 def describe_rule(cls: type) -> str:
     """The text of ``procgen rules show``: summary, parameters table, fields, domains."""
     import dataclasses
 
     lines = [f"{cls.name}  ({cls.__module__}.{cls.__name__})", ""]
-    lines += [textwrap.indent(textwrap.dedent(cls.__doc__ or "").strip(), "  "), ""]
-    rows = [("parameter", "type", "default", "range", "units", "doc")]
+    width = _width()
+    for para in textwrap.dedent(cls.__doc__ or "").strip().split("\n\n"):   # refilled to the width
+        lines += [textwrap.fill(" ".join(para.split()), width, initial_indent="  ", subsequent_indent="  "), ""]
+    # One block per parameter, wrapped to the terminal: a range or a list of choices can be as
+    # long as it needs to be and nothing is cut off.
     for p in cls.parameters():
         default = "(required)" if p.required else repr(p.default)
-        rows.append((p.name, p.type, default, p.info.range_text(), p.info.units, p.info.doc))
-    widths = [min(max(len(str(r[i])) for r in rows), 28) for i in range(5)]
-    for r in rows:
-        lines.append("  " + "  ".join(f"{str(r[i])[:28]:<{widths[i]}}" for i in range(5)) + "  " + r[5])
+        head = f"  {p.name}: {p.type} = {default}" + (f" [{p.info.units}]" if p.info.units else "")
+        lines.append(textwrap.fill(head, width, subsequent_indent="      "))
+        for label, text in (("range", p.info.range_text()), ("", p.info.doc)):
+            if text:
+                lines.append(textwrap.fill(f"{label}: {text}" if label else text, width,
+                                           initial_indent="      ", subsequent_indent="      "))
     specs = list(cls.fields)
     if specs:
         lines += ["", "  fields:"]
         for s in specs:
-            lines.append(f"    {s.intent:<5} {s.name} on {s.domain}.{s.at} [{s.units}] {s.doc}")
+            lines.append(textwrap.fill(f"{s.intent:<5} {s.name} on {s.domain}.{s.at} [{s.units}] {s.doc}", width,
+                                       initial_indent="    ", subsequent_indent="          "))
     if cls.uses:
         from .ca.cells import CELL_DOMAIN, cell_domain_kinds
         lines.append("  uses:    " + ", ".join(

@@ -17,5 +17,16 @@ class PluginError(ProcgenError):
     """A plugin failed to load, or registered something invalid."""
 
 
+class MissingExtra(ProcgenError):
+    """What a recipe asks for needs an optional extra that is not installed (``extra`` names it).
+
+    Not a failure of the recipe: the gallery leaves such an entry out with this one line.
+    """
+
+    def __init__(self, message: str, extra: str) -> None:
+        super().__init__(message)
+        self.extra = extra
+
+
 class InputError(ProcgenError):
     """Data handed to a rule or exporter is unusable (wrong shape, broken mesh, NaN...)."""

@@ -52,13 +52,19 @@ class GalleryReport:
     def failed(self) -> list[JobResult]:
         return [r for r in self.results if r.status == "failed"]
 
+    @property
+    def left_out(self) -> list[JobResult]:
+        """Entries that need an optional extra this installation lacks: a note, not a failure."""
+        return [r for r in self.results if r.status == "unavailable"]
+
     def summary(self) -> str:
         done = sum(r.status == "done" for r in self.results)
         skipped = sum(r.status == "skipped" for r in self.results)
-        lines = [f"gallery: {done} rendered, {skipped} up to date, {len(self.failed)} failed "
+        left = f", {len(self.left_out)} left out" if self.left_out else ""
+        lines = [f"gallery: {done} rendered, {skipped} up to date{left}, {len(self.failed)} failed "
                  f"in {self.seconds:.1f} s -> {self.out_dir / 'index.html'}"]
-        for r in self.failed:
-            lines.append(f"  FAILED {r.key} seed {r.seed}: {r.error}")
+        lines += [f"  left out {r.key} seed {r.seed}: {r.error}" for r in self.left_out]
+        lines += [f"  FAILED {r.key} seed {r.seed}: {r.error}" for r in self.failed]
         return "\n".join(lines)
 
 
@@ -243,8 +249,9 @@ def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick
             if r is None:
                 continue
             base = f"{e.slug}/seed-{s}"
-            if r.status == "failed":
-                body = f'<p class="err">failed: {html.escape(r.error)}</p>'
+            if r.status in ("failed", "unavailable"):
+                what = "failed" if r.status == "failed" else "left out"
+                body = f'<p class="err">{what}: {html.escape(r.error)}</p>'
             else:
                 imgs = "".join(f'<a href="{base}/{html.escape(f)}"><img src="{base}/{html.escape(f)}" '
                                f'alt="{html.escape(f)}"></a>' for f in _thumbs(r.files))

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .accel import share_cores
-from .errors import ProcgenError, RecipeError
+from .errors import MissingExtra, ProcgenError, RecipeError
 from .exchange import write
 
 if TYPE_CHECKING:
@@ -48,7 +48,7 @@ STAMP = ".procgen-done.json"
 class JobResult:
     key: str
     seed: int
-    status: str  # "done", "skipped", "failed"
+    status: str  # "done", "skipped" (up to date), "failed", "unavailable" (needs an optional extra)
     seconds: float = 0.0
     error: str = ""
     files: list[str] = field(default_factory=list)
@@ -99,7 +99,8 @@ def _failed(job: Job, t0: float, exc: BaseException) -> JobResult:
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
         error = f"{type(exc).__name__}: {' '.join(str(exc).split())}{where}"
-    return JobResult(job.key, job.seed, "failed", time.perf_counter() - t0, error=error)
+    status = "unavailable" if isinstance(exc, MissingExtra) else "failed"
+    return JobResult(job.key, job.seed, status, time.perf_counter() - t0, error=error)
 
 
 def plan_job(job: Job, host: "PluginHost", loaded: dict[tuple[str, tuple[str, ...]], Any] | None = None) -> Job:
@@ -265,7 +266,10 @@ def run_jobs(jobs: Sequence[Job], host: "PluginHost", *, processes: int = 1, sch
         else:
             todo.append((i, planned))
     del loaded
+    # A terminal gets a bar naming the last finished run; a log (stderr not a terminal, progress
+    # left to decide) gets one line per finished run, so a long batch is never silent.
     show = sys.stderr.isatty() if progress is None else progress
+    lines = progress is None and not show
     with tqdm(total=len(jobs), initial=len(results), desc=desc, unit="run", disable=not show,
               file=sys.stderr) as bar:
         if todo:
@@ -275,10 +279,26 @@ def run_jobs(jobs: Sequence[Job], host: "PluginHost", *, processes: int = 1, sch
                     if out.result.status == "done":
                         commit(job, out)
                     results[i] = out.result
+                    bar.set_postfix_str(f"{job.key} seed {job.seed} {out.result.status}", refresh=False)
                     bar.update(1)
+                    if lines:
+                        print(progress_line(desc, out.result, len(results), len(jobs)), file=sys.stderr,
+                              flush=True)
             finally:
                 close()
     return [results[i] for i in range(len(jobs))]
+
+
+def progress_line(desc: str, result: JobResult, done: int, total: int) -> str:
+    """``gallery [12/175] clouds-fig-4-3a seed 101: 12.3 s done`` (a failure adds its error)."""
+    text = (f"{desc} [{done}/{total}] {printable(result.key)} seed {result.seed}: "
+            f"{result.seconds:.1f} s {result.status}")
+    return f"{text}: {printable(result.error)}" if result.error else text
+
+
+def printable(text: str) -> str:
+    """``text`` with control characters (terminal escapes included) shown as ``?``."""
+    return "".join(c if c.isprintable() else "?" for c in text)
 
 
 def render_job(key: str, recipe_ref: str, overrides: list[str], seed: int, folder: str,

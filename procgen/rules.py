@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
-from .errors import RecipeError
+from .errors import MissingExtra, RecipeError
 from .fields import FieldSpec
 from .params import ParamInfo, check_range, coerce, did_you_mean, param_info, type_name
 
@@ -148,6 +148,8 @@ class RuleBase:
             if recipe_dir is not None:
                 rule.recipe_dir = recipe_dir  # type: ignore[misc]
             rule.validate()
+        except MissingExtra as exc:
+            raise MissingExtra(f"{prefix}{exc}", exc.extra) from None
         except (ValueError, TypeError) as exc:
             raise RecipeError(f"{prefix}{exc}") from None
         return rule

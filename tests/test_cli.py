@@ -130,3 +130,60 @@ def test_broken_plugin_is_reported_and_breaks_nothing(tmp_path):
     assert r.returncode == 0 and "hello.world" not in r.stdout
     r = _cli("plugins", env={**env, "PROCGEN_DISABLE_PLUGINS": "goodplug"})
     assert "disabled by PROCGEN_DISABLE_PLUGINS" in r.stdout
+
+
+def test_rules_show_wraps_every_range_and_choice_in_full(capsys, host):
+    # the longest range/choices text of any rule's parameters must appear whole, and no line may
+    # exceed the width (80 off a terminal): wrapped, not cut off
+    longest = max(((cls, p) for cls in host.rules.values() for p in cls.parameters()),
+                  key=lambda cp: len(cp[1].info.range_text()))
+    cls, p = longest
+    assert len(p.info.range_text()) > 40                      # a case that used to be cut at 28
+    assert main(["rules", "show", cls.name]) == 0
+    out = capsys.readouterr().out
+    assert " ".join(p.info.range_text().split()) in " ".join(out.split())
+    assert max(len(line) for line in out.splitlines()[1:]) <= 80
+
+
+def test_recipes_list_describes_each_recipe_and_show_prints_steps(capsys, host):
+    from procgen.recipes import list_recipes, read_toml
+
+    assert main(["recipes", "list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    recipes = list_recipes(host)
+    assert len(lines) == len(recipes)
+    for line, (name, path) in zip(lines, recipes.items()):
+        desc = read_toml(path)["recipe"]["description"]
+        assert line.startswith(name) and desc in line
+    assert main(["recipes", "show", "demo/basics"]) == 0
+    out = capsys.readouterr().out
+    data = read_toml(recipes["demo/basics"])
+    for st in data["steps"]:
+        assert st["rule"] in out
+    for o in data["outputs"]:
+        assert o["file"] in out and o["format"] in out
+    assert data["recipe"]["description"].split()[0] in out
+    assert main(["recipes", "show", "demo/basic"]) == 1
+    assert "did you mean" in capsys.readouterr().err
+
+
+def test_gallery_off_a_terminal_prints_one_line_per_finished_run(tmp_path):
+    r = _cli("gallery", "--quick", "--only", "demo/*", "--jobs", "1", "--out", str(tmp_path / "g"))
+    assert r.returncode == 0, r.stderr
+    runs = [line for line in r.stderr.splitlines() if line.startswith("gallery [")]
+    assert len(runs) == 1 and "demo-basics seed 7:" in runs[0] and runs[0].endswith(" s done")
+    again = _cli("gallery", "--quick", "--only", "demo/*", "--jobs", "1", "--out", str(tmp_path / "g"))
+    assert not [line for line in again.stderr.splitlines() if line.startswith("gallery [")]  # nothing ran
+    assert "1 up to date" in again.stdout
+
+
+def test_an_entry_needing_a_missing_extra_is_left_out_not_failed(tmp_path, host, monkeypatch):
+    from procgen.gallery import build_gallery
+    from procgen_wood import exposure
+
+    monkeypatch.setattr(exposure, "ray_engine", lambda: None)     # as if neither embreex nor rtree
+    rep = build_gallery(host, only=["weathering-exposure-on"], quick=True, out_dir=tmp_path / "g",
+                        progress=False)
+    assert rep.failed == [] and len(rep.left_out) == 1
+    assert "procgen-rules[embree]" in rep.left_out[0].error and "left out" in rep.summary()
+    assert "left out" in (tmp_path / "g" / "index.html").read_text()

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from procgen import InputError
+from procgen import InputError, MissingExtra
 
 
 def unit(v: np.ndarray, what: str) -> np.ndarray:
@@ -73,7 +73,7 @@ def intersector(vertices: np.ndarray, faces: np.ndarray):
     import trimesh
     engine = ray_engine()
     if engine is None:
-        raise InputError(NO_ENGINE)
+        raise MissingExtra(NO_ENGINE, "embree")
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     if engine == "embree":
         from trimesh.ray.ray_pyembree import RayMeshIntersector

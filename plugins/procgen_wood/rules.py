@@ -12,7 +12,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from procgen import FieldSpec, Grid, InputError, RuleBase, State, TriMesh, param
+from procgen import FieldSpec, Grid, InputError, MissingExtra, RuleBase, State, TriMesh, param
 from procgen.ca.cells import CELL_DOMAIN, cell_values, put_cell_values
 from procgen_surface.domain import SurfaceCells
 
@@ -249,7 +249,7 @@ class Exposure(RuleBase):
         except InputError as exc:
             raise ValueError(str(exc)) from None
         if self.occlusion == "rays" and ex.ray_engine() is None:
-            raise ValueError(ex.NO_ENGINE)
+            raise MissingExtra(ex.NO_ENGINE, "embree")
 
     def step(self, state: State) -> bool:
         sc = state.get(self.cells, SurfaceCells)

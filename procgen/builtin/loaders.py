@@ -25,7 +25,7 @@ from scipy import ndimage
 from .. import portable
 from ..data import builtin_rules_dir
 from ..domains import Grid, TriMesh
-from ..errors import InputError
+from ..errors import InputError, MissingExtra
 from ..exchange.raster_read import Raster, RasterInfo, metres_per_degree, probe_raster, read_raster
 from ..fields import FieldSpec
 from ..params import param
@@ -178,6 +178,8 @@ class LoadGrid(RuleBase):
     def _probe(self, base_dir: Path | None) -> RasterInfo:
         try:
             return probe_raster(resolve_data_path(self.file, base_dir))
+        except MissingExtra:
+            raise
         except InputError as exc:
             raise ValueError(str(exc)) from None
 

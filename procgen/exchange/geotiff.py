@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..domains import Domain, Grid
-from ..errors import InputError
+from ..errors import InputError, MissingExtra
 from .heightmap import grid_scalar
 from .provenance import provenance_json
 from .registry import Exporter
@@ -41,7 +41,7 @@ def geotiff_export(domain: Domain, *, stem: str, provenance: dict[str, Any] | No
         from rasterio.io import MemoryFile
         from rasterio.transform import Affine
     except ImportError:
-        raise InputError("geotiff: writing GeoTIFF needs rasterio: pip install 'procgen-rules[geo]'") from None
+        raise MissingExtra("geotiff: writing GeoTIFF needs rasterio: pip install 'procgen-rules[geo]'", "geo") from None
     arr = grid_scalar(domain, field, layer, "geotiff")
     assert isinstance(domain, Grid)
     wkt = str(domain["geo__crs"]) if "geo__crs" in domain else crs

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, MissingExtra
 
 _PNG_EXT = (".png",)
 _NPY_EXT = (".npy",)
@@ -173,7 +173,7 @@ def _rasterio():
     try:
         import rasterio
     except ImportError:
-        raise InputError("reading GeoTIFF needs rasterio: pip install 'procgen-rules[geo]'") from None
+        raise MissingExtra("reading GeoTIFF needs rasterio: pip install 'procgen-rules[geo]'", "geo") from None
     return rasterio
 
 
