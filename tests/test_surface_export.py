@@ -216,9 +216,9 @@ def test_vertex_colour_and_untextured_exports():
     assert all(len(r) == 7 and r[4:] == ["1.0000", "0.0000", "0.0000"] for r in rows)
     back = trimesh.load(io.BytesIO(files["v.obj"]), file_type="obj", force="mesh", process=False)
     assert np.all(np.asarray(back.visual.vertex_colors)[:, :3] == [255, 0, 0])
-    g = trimesh.load(io.BytesIO(surface_glb(sc, textured=False)), file_type="glb", force="mesh")
-    assert g.visual.kind == "vertex"
-    assert np.all(np.asarray(g.visual.vertex_colors)[:, :3] == [255, 0, 0])
+    (g,) = trimesh.load(io.BytesIO(surface_glb(sc, textured=False)), file_type="glb").geometry.values()
+    assert g.visual.material.name == "vertex_colours"     # a material that shows them (Blender)
+    assert np.all(np.asarray(g.visual.vertex_attributes["color"])[:, :3] == [255, 0, 0])
 
 
 def test_saved_state_loads_after_plugin_discovery_alone(host, tmp_path):

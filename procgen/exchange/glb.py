@@ -12,21 +12,42 @@ from .obj import corner_uvs, texture_image, vertex_colors
 
 def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
                color_field: str | None = None, uv_field: str | None = None,
-               texture_field: str | None = None) -> bytes:
-    """GLB bytes; a textured mesh splits vertices only where UVs differ (atlas seams)."""
+               texture_field: str | None = None, cmap: str = "terrain") -> bytes:
+    """GLB bytes; a textured mesh splits vertices only where UVs differ (atlas seams).
+
+    ``color_field`` names vertex colours, or a scalar vertex field shown through ``cmap``.
+    """
     import trimesh
 
     if not isinstance(domain, TriMesh):
         raise InputError(f"glb: expected a TriMesh, got {domain.kind}")
-    scene = trimesh.Scene(mesh_for_export(domain, color_field=color_field, uv_field=uv_field,
-                                          texture_field=texture_field))
+    mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field,
+                           cmap=cmap)
+    scene = trimesh.Scene(mesh if uv_field else with_vertex_colour_material(mesh, color_field is not None))
     if provenance:
         scene.metadata["procgen"] = provenance
     return scene.export(file_type="glb")
 
 
+def with_vertex_colour_material(mesh: Any, coloured: bool) -> Any:
+    """``mesh`` with a material a viewer shows: white times the vertex colours (glTF 2.0 multiplies
+    COLOR_0 into the base colour; Blender's importer wires it to the Principled BSDF's Base Color),
+    or a plain light grey when the mesh has no colours. Without a material, Blender's default
+    material hides vertex colours."""
+    import trimesh
+
+    base = [255, 255, 255, 255] if coloured else [200, 200, 200, 255]
+    material = trimesh.visual.material.PBRMaterial(name="vertex_colours" if coloured else "plain",
+                                                   baseColorFactor=base, metallicFactor=0.0,
+                                                   roughnessFactor=0.8, doubleSided=True)
+    visual = trimesh.visual.TextureVisuals(material=material)
+    if coloured:
+        visual.vertex_attributes["color"] = np.asarray(mesh.visual.vertex_colors, np.uint8)
+    return trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces, visual=visual, process=False)
+
+
 def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field: str | None = None,
-                    texture_field: str | None = None) -> Any:
+                    texture_field: str | None = None, cmap: str = "terrain") -> Any:
     """A ``trimesh.Trimesh`` carrying the domain's vertex colours or UV-mapped texture."""
     import trimesh
     from PIL import Image
@@ -50,6 +71,6 @@ def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field
     else:
         mesh = trimesh.Trimesh(vertices=np.array(v), faces=np.array(domain.faces), process=False)
         if color_field:
-            rgb = np.round(vertex_colors(domain, color_field) * 255).astype(np.uint8)
+            rgb = np.round(vertex_colors(domain, color_field, cmap) * 255).astype(np.uint8)
             mesh.visual.vertex_colors = np.column_stack([rgb, np.full(len(rgb), 255, np.uint8)])
     return mesh

@@ -22,9 +22,12 @@ def _rows(fmt: str, arr: np.ndarray) -> str:
     return buf.getvalue()
 
 
-def vertex_colors(domain: TriMesh, color_field: str) -> np.ndarray:
-    """(n, 3) floats in 0..1 from a vertex field (0..1 floats or uint8)."""
+def vertex_colors(domain: TriMesh, color_field: str, cmap: str = "terrain") -> np.ndarray:
+    """(n, 3) floats in 0..1 from a vertex field: colours (0..1 floats or uint8), or scalars
+    (heights, say) through the matplotlib colour map ``cmap``, as image_png colours a grid."""
     col = np.asarray(domain[color_field])
+    if col.shape == (domain.n_vertices,):
+        return to_rgb8(col[None, :].astype(np.float64), cmap)[0] / 255.0
     if col.shape[:1] != (domain.n_vertices,) or col.ndim != 2 or col.shape[1] not in (3, 4):
         raise InputError(f"obj: color field {color_field!r} must be (n_vertices, 3|4), got {col.shape}")
     col = col[:, :3]
