@@ -58,11 +58,25 @@ def new_drawing(bounds: tuple[float, float, float, float], width_px: int,
     return dwg, group, w / width_px
 
 
+#: the RDF vocabulary Inkscape itself writes into <metadata> (Document Properties > Metadata)
+RDF_NS = ('xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#" xmlns:cc="http://creativecommons.org/ns#" '
+          'xmlns:dc="http://purl.org/dc/elements/1.1/"')
+
+
 def finish(dwg: svgwrite.Drawing, provenance: dict[str, Any] | None, title: str = "") -> bytes:
-    """Serialise with provenance in <metadata> (no timestamps)."""
+    """Serialise with provenance in <metadata> (no timestamps): an RDF ``cc:Work`` whose
+    ``dc:description`` is the provenance JSON and ``dc:creator`` the program, the form Inkscape
+    reads, keeps on save and shows in Document Properties (an element of our own namespace
+    there made Inkscape warn "unknown type" on every open)."""
     text = dwg.tostring()
-    meta = f"<metadata><procgen:provenance xmlns:procgen=\"https://procgen-rules.invalid/ns\">" \
-           f"{escape(provenance_json(provenance))}</procgen:provenance></metadata>"
+    version = (provenance or {}).get("versions", {}).get("procgen-rules", "")
+    creator = f"procgen {version}".strip()
+    work = ('<dc:format>image/svg+xml</dc:format>'
+            '<dc:type rdf:resource="http://purl.org/dc/dcmitype/StillImage"/>'
+            + (f"<dc:title>{escape(title)}</dc:title>" if title else "")
+            + f"<dc:creator><cc:Agent><dc:title>{escape(creator)}</dc:title></cc:Agent></dc:creator>"
+            + f"<dc:description>{escape(provenance_json(provenance))}</dc:description>")
+    meta = f'<metadata><rdf:RDF {RDF_NS}><cc:Work rdf:about="">{work}</cc:Work></rdf:RDF></metadata>'
     if title:
         meta = f"<title>{escape(title)}</title>" + meta
     head_end = text.index(">", text.index("<svg")) + 1
