@@ -5,11 +5,13 @@ import argparse
 import json
 import os
 import sys
+import re
 import textwrap
+import traceback
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
-from .errors import ProcgenError
+from .errors import ProcgenError, printable
 
 if TYPE_CHECKING:
     from .recipes import Recipe
@@ -117,7 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _dispatch(args, parser)
     except ProcgenError as exc:
         if args.debug:
-            raise
+            traceback.print_exc()
         print(f"procgen: error: {_one_line(str(exc))}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
@@ -126,16 +128,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # `procgen rules list | head`: the reader left, not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except Exception as exc:  # a bug, not bad input: still one line unless --debug
+    except Exception as exc:  # a bug, not bad input: still one line, the traceback with --debug
         if args.debug:
-            raise
+            traceback.print_exc()
+            return 3
         print(f"procgen: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
               "(run again with --debug for the traceback)", file=sys.stderr)
         return 3
 
 
 def _one_line(text: str) -> str:
-    return " ".join(text.split())
+    """``text`` on one line, control characters (terminal escapes) shown as ``?``."""
+    return printable(" ".join(text.split()))
+
+
+def default_out(name: str, root: Path = Path("out")) -> Path:
+    """``out/<name>`` for a recipe's name, sanitised so that it stays inside ``out``: a name such
+    as ``/etc`` or ``../../x`` is a name, never a path (separators and dots become ``_``)."""
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "recipe"
+    return root / safe
 
 
 def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -151,12 +162,12 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             return 0
         from .runner import run
 
-        out = args.out or Path("out") / recipe.name
+        out = args.out or default_out(recipe.name)
         progress = {"auto": None, "on": True, "off": False}[args.progress]
         result = run(recipe, host, seed=args.seed, out_dir=out, progress=progress, save_state=args.state)
-        print(f"wrote {len(result.files)} files to {out}/")
+        print(f"wrote {len(result.files)} files to {printable(str(out))}/")
         for f in sorted(result.files):
-            print(f"  {out / f}")
+            print(f"  {printable(str(out / f))}")
         for key, value in sorted(result.state.reports.items()):   # series are in run.json
             print(f"  {key} = {f'({len(value)} values in run.json)' if isinstance(value, list) else value}")
         return 0

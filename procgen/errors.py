@@ -5,6 +5,12 @@ The CLI prints ``str(error)`` and exits non-zero; anything that is not a Procgen
 from __future__ import annotations
 
 
+def printable(text: str) -> str:
+    """``text`` with control characters (terminal escapes included) shown as ``?``: what a
+    message echoes from a file or a recipe must not drive the user's terminal."""
+    return "".join(c if c.isprintable() else "?" for c in text)
+
+
 class ProcgenError(Exception):
     """Base of every error procgen raises on purpose (bad input, bad recipe, broken plugin)."""
 

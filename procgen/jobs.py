@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .accel import share_cores
-from .errors import MissingExtra, ProcgenError, RecipeError
+from .errors import MissingExtra, ProcgenError, RecipeError, printable
 from .exchange import write
 
 if TYPE_CHECKING:
@@ -294,11 +294,6 @@ def progress_line(desc: str, result: JobResult, done: int, total: int) -> str:
     text = (f"{desc} [{done}/{total}] {printable(result.key)} seed {result.seed}: "
             f"{result.seconds:.1f} s {result.status}")
     return f"{text}: {printable(result.error)}" if result.error else text
-
-
-def printable(text: str) -> str:
-    """``text`` with control characters (terminal escapes included) shown as ``?``."""
-    return "".join(c if c.isprintable() else "?" for c in text)
 
 
 def render_job(key: str, recipe_ref: str, overrides: list[str], seed: int, folder: str,

@@ -187,3 +187,31 @@ def test_an_entry_needing_a_missing_extra_is_left_out_not_failed(tmp_path, host,
     assert rep.failed == [] and len(rep.left_out) == 1
     assert "procgen-rules[embree]" in rep.left_out[0].error and "left out" in rep.summary()
     assert "left out" in (tmp_path / "g" / "index.html").read_text()
+
+
+def test_default_output_folder_stays_inside_out_whatever_the_recipe_name(tmp_path):
+    for name, expect in (("/some/abs/dir", "some_abs_dir"), ("../../x", "x"), ("..", "recipe"),
+                         ("cloud\x1b[2J", "cloud_2J")):
+        recipe = tmp_path / "r.toml"
+        recipe.write_text(f'[recipe]\nname = {json.dumps(name)}\n[[steps]]\nrule = "grid.noise"\n'
+                          'params = { grid = "g", nx = 8, ny = 8 }\n[[outputs]]\ndomain = "g"\n'
+                          'format = "heightmap_png16"\nfile = "h.png"\n')
+        work = tmp_path / "work"
+        work.mkdir(exist_ok=True)
+        r = _cli("run", str(recipe), "--progress", "off", cwd=work)
+        assert r.returncode in (0, 1), r.stderr
+        if r.returncode == 0:
+            assert (work / "out" / expect).is_dir(), (name, sorted(p.name for p in (work / "out").iterdir()))
+        assert "\x1b" not in r.stdout + r.stderr
+    assert not (tmp_path / "x").exists() and not Path("/some/abs/dir").exists()
+
+
+def test_debug_internal_error_exits_3_with_the_traceback(monkeypatch, capsys):
+    import procgen.cli as cli
+
+    def boom(*a, **k):
+        raise ZeroDivisionError("a bug")
+    monkeypatch.setattr(cli, "_dispatch", boom)
+    assert cli.main(["--debug", "plugins"]) == 3
+    assert "Traceback" in capsys.readouterr().err
+    assert cli.main(["plugins"]) == 3
