@@ -177,11 +177,67 @@ def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: in
     return GalleryReport(out, results, time.perf_counter() - t0)
 
 
-def _thumbs(files: list[str]) -> list[str]:
-    pics = [f for f in files if f.endswith((".svg", ".png")) and not f.startswith("frames/")
-            and not f.endswith("_texture.png")]
+#: front-page thumbnails: PNG previews this wide; SVGs up to this size are shown as they are
+THUMB_WIDTH = 360
+SVG_THUMB_BYTES = 300_000
+
+
+def _pictures(files: list[str]) -> list[str]:
+    """The entry's pictures, most telling first: previews, other outputs, then its last frames
+    (an entry whose only pictures are frames still shows one)."""
+    pics = [f for f in files if f.endswith((".svg", ".png")) and not f.endswith("_texture.png")]
+    frames = sorted(f for f in pics if f.startswith("frames/"))
+    pics = [f for f in pics if not f.startswith("frames/")]
     previews = [f for f in pics if "preview" in f]
-    return (previews + [f for f in pics if f not in previews])[:4]
+    return previews + [f for f in pics if f not in previews] + frames[::-1]
+
+
+def _thumbnail(out: Path, base: str, name: str) -> tuple[str, int, int] | None:
+    """(src, width, height) of a light front-page picture for ``base/name``, or None when the
+    picture is near-blank or an SVG too heavy for a thumbnail. PNGs are scaled down once into
+    ``_thumbs/`` (redone only when the run's file is newer)."""
+    src = out / base / name
+    if name.endswith(".svg"):
+        return (f"{base}/{name}", 0, 0) if src.stat().st_size <= SVG_THUMB_BYTES else None
+    rel = f"_thumbs/{base}/{name.replace('/', '_')}"
+    dst = out / rel
+    if not dst.is_file() or dst.stat().st_mtime_ns < src.stat().st_mtime_ns:
+        import io
+
+        import numpy as np
+        from PIL import Image
+
+        with Image.open(src) as img:
+            if img.mode in ("I", "I;16", "I;16B", "F"):        # 16-bit heightmaps: stretch to 8 bits
+                a = np.asarray(img, dtype=np.float64)
+                lo, hi = float(a.min()), float(a.max())
+                img = Image.fromarray(np.uint8(np.round(255 * (a - lo) / (hi - lo if hi > lo else 1))))
+            img = img.convert("RGBA" if "A" in img.mode else "RGB")
+            img.thumbnail((THUMB_WIDTH, THUMB_WIDTH * 2))
+            buf = io.BytesIO()
+            img.save(buf, format="PNG", optimize=True)
+        write(dst, buf.getvalue())
+    from PIL import Image, ImageStat
+
+    with Image.open(dst) as img:
+        size = img.size
+        if max(ImageStat.Stat(img.convert("L")).stddev) < 2.0:      # a near-blank map says nothing
+            return None
+    return rel, size[0], size[1]
+
+
+def _thumbs_html(out: Path, base: str, files: list[str], limit: int = 4) -> str:
+    cells = []
+    for f in _pictures(files):
+        t = _thumbnail(out, base, f)
+        if t is not None:
+            src, w, h = t
+            size = f' width="{w}" height="{h}"' if w else ""
+            cells.append(f'<a href="{base}/{html.escape(f)}"><img src="{html.escape(src)}"{size} '
+                         f'loading="lazy" alt="{html.escape(f)}"></a>')
+        if len(cells) == limit:
+            break
+    return "".join(cells)
 
 
 def _params_html(run_json: Path) -> str:
@@ -242,8 +298,9 @@ def report_text(key: str, value: Any, thesis: dict[str, float]) -> str:
 def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick: bool) -> None:
     """The contact sheet: a card per entry+seed with thumbnails, figure, caption and links."""
     by = {(r.key, r.seed): r for r in results}
-    cards = []
+    families: dict[str, list[str]] = {}          # the recipe's folder: clouds, terrain, meshes, ...
     for e in entries:
+        cards = families.setdefault(e.recipe.split("/")[0] if "/" in e.recipe else "files", [])
         for s in e.seeds:
             r = by.get((e.slug, s))
             if r is None:
@@ -253,8 +310,7 @@ def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick
                 what = "failed" if r.status == "failed" else "left out"
                 body = f'<p class="err">{what}: {html.escape(r.error)}</p>'
             else:
-                imgs = "".join(f'<a href="{base}/{html.escape(f)}"><img src="{base}/{html.escape(f)}" '
-                               f'alt="{html.escape(f)}"></a>' for f in _thumbs(r.files))
+                imgs = _thumbs_html(out, base, r.files)
                 links = " ".join(f'<a href="{base}/{html.escape(f)}">{html.escape(f)}</a>'
                                  for f in r.files if not f.startswith("frames/"))
                 reps = {k: v for k, v in r.reports.items() if not isinstance(v, (dict, list))}
@@ -266,6 +322,10 @@ def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick
             cards.append(f'<div class="card"><h2>{html.escape(e.title)}</h2>'
                          f'<p class="fig">{html.escape(e.figure)} &middot; recipe <code>{html.escape(e.recipe)}</code>'
                          f' &middot; seed {s}</p><p>{html.escape(e.caption)}</p>{body}</div>')
+    toc = " &middot; ".join(f'<a href="#{html.escape(f)}">{html.escape(f)}</a> ({len(c)})'
+                            for f, c in families.items())
+    sections = "\n".join(f'<section id="{html.escape(f)}"><h2 class="family">{html.escape(f)}</h2>'
+                         f'<div class="grid">\n{chr(10).join(c)}\n</div></section>' for f, c in families.items())
     page = f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>procgen gallery</title>
 <style>
@@ -273,15 +333,16 @@ body {{ font-family: sans-serif; margin: 1.5em; background: #f4f4f2; color: #222
 .grid {{ display: grid; grid-template-columns: repeat(auto-fill, minmax(420px, 1fr)); gap: 1em; }}
 .card {{ background: white; padding: .8em; border-radius: 6px; box-shadow: 0 1px 3px #0002; }}
 .card h2 {{ font-size: 1.05em; margin: 0 0 .2em; }}
-.thumbs img {{ max-width: 48%; max-height: 220px; margin: 1px; background: #ddd; }}
+.thumbs img {{ max-width: 48%; max-height: 220px; width: auto; height: auto; margin: 1px; background: #ddd; }}
+h2.family {{ text-transform: capitalize; border-bottom: 1px solid #ccc; margin-top: 1.5em; }}
+nav {{ font-size: .9em; }}
 .fig, .files, .rep {{ font-size: .8em; color: #555; }}
 .err {{ color: #a00; }}
 details {{ font-size: .75em; color: #444; }} .params {{ padding-left: 1.2em; margin: .3em 0; }}
 </style></head><body>
 <h1>procgen gallery{' (quick)' if quick else ''}</h1>
-<div class="grid">
-{chr(10).join(cards)}
-</div>
+<nav>{toc}</nav>
+{sections}
 <script>
 // lets a headless browser (and a curious reader) check that every thumbnail decoded
 window.addEventListener("load", () => {{

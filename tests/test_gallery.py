@@ -52,3 +52,28 @@ set = {{ "steps.0.params.nx" = 8, "outputs.0.options.cmap" = "no_such_cmap" }}
     # a different quick setting is a different provenance: re-rendered
     rep4 = build_gallery(host, jobs=1, quick=False, out_dir=out, progress=False, only=["demo/*"])
     assert [r.status for r in rep4.results] == ["done", "done"]
+
+
+def test_front_page_thumbnails_are_small_lazy_and_never_blank(tmp_path):
+    import re
+
+    import numpy as np
+    from PIL import Image
+
+    from procgen.gallery import THUMB_WIDTH, _thumbs_html
+
+    base = tmp_path / "e" / "seed-1"
+    (base / "frames" / "step1").mkdir(parents=True)
+    rng = np.random.default_rng(1)
+    Image.fromarray(rng.integers(0, 255, (1000, 2000, 3), dtype=np.uint8)).save(base / "big.png")
+    Image.fromarray(np.full((500, 500), 200, np.uint8)).save(base / "blank.png")     # a map that says nothing
+    Image.fromarray((rng.random((300, 300)) * 65535).astype(np.uint16)).save(base / "height.png")
+    Image.fromarray(rng.integers(0, 255, (400, 400), dtype=np.uint8)).save(base / "frames/step1/frame_0010.png")
+    page = _thumbs_html(tmp_path, "e/seed-1", ["blank.png", "big.png", "height.png"])
+    srcs = re.findall(r'<img src="([^"]+)" width="(\d+)" height="(\d+)" loading="lazy"', page)
+    assert [s for s, _, _ in srcs] == ["_thumbs/e/seed-1/big.png", "_thumbs/e/seed-1/height.png"]
+    assert all(int(w) <= THUMB_WIDTH for _, w, _ in srcs)
+    assert sum((tmp_path / s).stat().st_size for s, _, _ in srcs) < (base / "big.png").stat().st_size / 5
+    # an entry whose only pictures are frames shows its last frame
+    only_frames = _thumbs_html(tmp_path, "e/seed-1", ["frames/step1/frame_0010.png"])
+    assert "frames_step1_frame_0010.png" in only_frames
