@@ -37,11 +37,12 @@ from typing import TYPE_CHECKING, Any
 from .accel import share_cores
 from .errors import MissingExtra, ProcgenError, RecipeError, printable
 from .exchange import write
+from .recipes import RESERVED_FILES
 
 if TYPE_CHECKING:
     from .plugins import PluginHost
 
-STAMP = ".procgen-done.json"
+STAMP = RESERVED_FILES[2]          # ".procgen-done.json": recipes refuse it as an output name
 
 
 @dataclass

@@ -33,6 +33,8 @@ STEP_ID = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*")   # never all digits: ``steps.3
 OUTPUT_KEYS = ("domain", "format", "file", "options")
 FRAME_KEYS = ("every", "domain", "format", "options")
 DEFAULT_MAX_ITERATIONS = 100_000
+#: what a run writes beside its outputs (runner: run.json, --state; jobs: the stamp; frames/)
+RESERVED_FILES = ("run.json", "state.npz", ".procgen-done.json")
 
 
 @dataclass
@@ -409,6 +411,10 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
         pp = PurePosixPath(fname)
         if pp.is_absolute() or ".." in pp.parts or fname.startswith(("/", "\\")):
             raise RecipeError(f"{where}: file {fname!r} must stay inside the output folder")
+        if pp.name in ("", ".") or fname.endswith(("/", "\\")) or not fname.isprintable():
+            raise RecipeError(f"{where}: file {fname!r} must name a file (printable characters, not a folder)")
+        if fname in RESERVED_FILES or pp.parts[0] == "frames":
+            raise RecipeError(f"{where}: file {fname!r} is where the run writes its own record; choose another name")
         if fname in seen_files:
             raise RecipeError(f"{where}: file {fname!r} is written by an earlier output too")
         seen_files.add(fname)

@@ -215,3 +215,14 @@ def test_debug_internal_error_exits_3_with_the_traceback(monkeypatch, capsys):
     assert cli.main(["--debug", "plugins"]) == 3
     assert "Traceback" in capsys.readouterr().err
     assert cli.main(["plugins"]) == 3
+
+
+def test_an_output_file_that_is_a_folder_or_the_runs_own_record_is_refused_at_check(tmp_path):
+    for file, what in ((".", "must name a file"), ("sub/", "must name a file"), ("run.json", "own record"),
+                       ("state.npz", "own record"), ("frames/x.png", "own record"), ("a\x1bb.png", "printable")):
+        recipe = tmp_path / "r.toml"
+        recipe.write_text('[[steps]]\nrule = "grid.noise"\nparams = { grid = "g", nx = 8, ny = 8 }\n'
+                          f'[[outputs]]\ndomain = "g"\nformat = "heightmap_png16"\nfile = {json.dumps(file)}\n')
+        r = _cli("check", str(recipe))
+        assert r.returncode == 1 and what in r.stderr and len(r.stderr.strip().splitlines()) == 1, (file, r.stderr)
+        assert "\x1b" not in r.stderr
