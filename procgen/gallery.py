@@ -196,17 +196,17 @@ def _thumbnail(out: Path, base: str, name: str) -> tuple[str, int, int] | None:
     """(src, width, height) of a light front-page picture for ``base/name``, or None when the
     picture is near-blank or an SVG too heavy for a thumbnail. PNGs are scaled down once into
     ``_thumbs/`` (redone only when the run's file is newer)."""
+    import io
+
+    import numpy as np
+    from PIL import Image, ImageStat
+
     src = out / base / name
     if name.endswith(".svg"):
         return (f"{base}/{name}", 0, 0) if src.stat().st_size <= SVG_THUMB_BYTES else None
     rel = f"_thumbs/{base}/{name.replace('/', '_')}"
     dst = out / rel
     if not dst.is_file() or dst.stat().st_mtime_ns < src.stat().st_mtime_ns:
-        import io
-
-        import numpy as np
-        from PIL import Image
-
         with Image.open(src) as img:
             if img.mode in ("I", "I;16", "I;16B", "F"):        # 16-bit heightmaps: stretch to 8 bits
                 a = np.asarray(img, dtype=np.float64)
@@ -217,8 +217,6 @@ def _thumbnail(out: Path, base: str, name: str) -> tuple[str, int, int] | None:
             buf = io.BytesIO()
             img.save(buf, format="PNG", optimize=True)
         write(dst, buf.getvalue())
-    from PIL import Image, ImageStat
-
     with Image.open(dst) as img:
         size = img.size
         if max(ImageStat.Stat(img.convert("L")).stddev) < 2.0:      # a near-blank map says nothing
