@@ -11,7 +11,7 @@ import traceback
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
-from .errors import ProcgenError, printable
+from .errors import ProcgenError, RecipeError, printable
 
 if TYPE_CHECKING:
     from .recipes import Recipe
@@ -160,8 +160,11 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if args.command == "check":
             print(f"{recipe.source}: ok ({len(recipe.steps)} steps, {len(recipe.outputs)} outputs)")
             return 0
+        from .recipes import MAX_SEED
         from .runner import run
 
+        if args.seed is not None and not 0 <= args.seed <= MAX_SEED:
+            raise RecipeError(f"--seed {args.seed}: expected an integer in [0, 2^63 - 1]")
         out = args.out or default_out(recipe.name)
         progress = {"auto": None, "on": True, "off": False}[args.progress]
         result = run(recipe, host, seed=args.seed, out_dir=out, progress=progress, save_state=args.state)

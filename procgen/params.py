@@ -137,15 +137,28 @@ def coerce(value: Any, tp: Any, where: str) -> Any:
     return value
 
 
+#: The magnitude no number in a parameter may exceed on a side where the parameter declares no
+#: bound of its own.  Every number a rule takes is then finite and far inside int64 and float64
+#: (products of a few stay representable), so a fuzzed ``2^63`` or ``1e15`` is refused in one
+#: line instead of overflowing a cast or an allocation deep in a step.  Lengths, counts and
+#: coordinates in the shipped recipes stay below 1e7.
+DEFAULT_BOUND = 1e9
+
+
 def check_range(value: Any, info: ParamInfo, where: str) -> None:
-    """Apply ``info``'s bounds to a number or to every number inside a list."""
+    """Apply ``info``'s bounds (DEFAULT_BOUND where it declares none) to a number, or to every
+    number inside a list or table."""
     if info.choices is not None:
         if value not in info.choices:
-            raise ValueError(f"{where}: {value!r} is not one of {list(info.choices)}")
+            raise ValueError(f"{where}: {_short(value)} is not one of {list(info.choices)}")
         return
     if isinstance(value, (list, tuple)):
         for i, v in enumerate(value):
             check_range(v, info, f"{where}[{i}]")
+        return
+    if isinstance(value, dict):
+        for k, v in value.items():
+            check_range(v, info, f"{where}.{k}")
         return
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return
@@ -154,7 +167,20 @@ def check_range(value: Any, info: ParamInfo, where: str) -> None:
     bad = ((info.ge is not None and value < info.ge) or (info.le is not None and value > info.le)
            or (info.gt is not None and value <= info.gt) or (info.lt is not None and value >= info.lt))
     if bad:
-        raise ValueError(f"{where}: {value!r} is outside the allowed range {info.range_text()}")
+        raise ValueError(f"{where}: {_short(value)} is outside the allowed range {info.range_text()}")
+    if ((info.le is None and info.lt is None and value > DEFAULT_BOUND)
+            or (info.ge is None and info.gt is None and value < -DEFAULT_BOUND)):
+        raise ValueError(f"{where}: {_short(value)} is beyond {DEFAULT_BOUND:.0e}, the largest "
+                         "magnitude a parameter takes")
+
+
+def _short(value: Any) -> str:
+    """A number as a message shows it: huge integers in float notation, never 4,000 digits."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
+        return f"{value:.3e}" if abs(value) < 10**300 else "an integer of over 300 digits"
+    if isinstance(value, float) and abs(value) >= 1e15:
+        return f"{value:g}"
+    return repr(value)
 
 
 def did_you_mean(word: str, options: typing.Iterable[str]) -> str:

@@ -33,6 +33,16 @@ STEP_ID = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*")   # never all digits: ``steps.3
 OUTPUT_KEYS = ("domain", "format", "file", "options")
 FRAME_KEYS = ("every", "domain", "format", "options")
 DEFAULT_MAX_ITERATIONS = 100_000
+# Limits that keep ``procgen check`` fast and bounded on hostile or broken files (the largest
+# shipped recipe is 8 kB, 30 steps and 7 levels deep): each refusal is one line, before parsing
+# where it can be.
+MAX_RECIPE_BYTES = 4 << 20
+MAX_NESTING = 32            # arrays and tables inside each other
+MAX_STEPS = 10_000
+MAX_OUTPUTS = 10_000
+MAX_ITERATIONS = 1_000_000_000
+MAX_SEED = 2**63 - 1        # seeds are int64 wherever they are stored or hashed
+_STEP_HEADER = re.compile(rb"^[ \t]*\[\[[ \t]*steps[ \t]*\]\]", re.M)
 #: what a run writes beside its outputs (runner: run.json, --state; jobs: the stamp; frames/)
 RESERVED_FILES = ("run.json", "state.npz", ".procgen-done.json")
 
@@ -122,18 +132,65 @@ def rules_missing(path: Path, host: "PluginHost") -> list[str]:
 
 
 def read_toml(path: Path) -> dict[str, Any]:
+    """Read and parse a recipe file: a regular file of at most MAX_RECIPE_BYTES, UTF-8."""
+    import os
+    import stat
+
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RecipeError(f"{path}: cannot read ({exc})") from None
+        with open(path, "rb", opener=lambda p, flags: os.open(p, flags | os.O_NONBLOCK)) as fh:
+            mode = os.fstat(fh.fileno()).st_mode
+            if not stat.S_ISREG(mode):
+                raise RecipeError(f"{path}: not a regular file (a recipe is a .toml file)")
+            blob = fh.read(MAX_RECIPE_BYTES + 1)
+    except OSError as exc:
+        raise RecipeError(f"{path}: cannot read ({exc.strerror or 'I/O error'})") from None
+    if len(blob) > MAX_RECIPE_BYTES:
+        if len(_STEP_HEADER.findall(blob)) > MAX_STEPS:
+            raise RecipeError(f"{path}: more than {MAX_STEPS} [[steps]] tables, the most a recipe may have")
+        raise RecipeError(f"{path}: larger than {MAX_RECIPE_BYTES >> 20} MiB, the most a recipe may be")
+    try:
+        text = blob.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise RecipeError(f"{path}: not UTF-8 text (byte {exc.start})") from None
     return parse_toml(text, str(path))
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:
+    """Parse recipe TOML within the size, step-count and nesting limits; one-line errors."""
+    if len(text) > MAX_RECIPE_BYTES:
+        raise RecipeError(f"{source}: larger than {MAX_RECIPE_BYTES >> 20} MiB, the most a recipe may be")
+    headers = len(_STEP_HEADER.findall(text.encode("utf-8", "replace")))
+    if headers > MAX_STEPS:       # refused before the parse, which would take seconds
+        raise RecipeError(f"{source}: {headers} [[steps]] tables, more than the {MAX_STEPS} a recipe may have")
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RecipeError(f"{source}: invalid TOML ({exc})") from None
+    except ValueError:            # the only other one tomllib raises: int() of a huge literal
+        raise RecipeError(f"{source}: invalid TOML (an integer with thousands of digits)") from None
+    except RecursionError:
+        raise RecipeError(f"{source}: arrays or tables nested more than {MAX_NESTING} levels deep") from None
+    check_nesting(data, source)
+    return data
+
+
+def check_nesting(data: Any, source: str) -> None:
+    """Refuse arrays and tables nested more than MAX_NESTING deep (without recursing)."""
+    stack: list[tuple[Any, int, Any]] = [(data, 0, None)]
+    while stack:
+        node, depth, trail = stack.pop()
+        if depth > MAX_NESTING:
+            parts: list[str] = []
+            while trail is not None:
+                trail, key = trail
+                parts.append(f"[{key}]" if isinstance(key, int) else f".{key}")
+            where = "".join(reversed(parts)).lstrip(".")
+            where = where if len(where) <= 60 else where[:57] + "..."
+            raise RecipeError(f"{source}: {where}: arrays or tables nested more than {MAX_NESTING} levels deep")
+        if isinstance(node, dict):
+            stack.extend((v, depth + 1, (trail, k)) for k, v in node.items() if isinstance(v, (dict, list)))
+        elif isinstance(node, list):
+            stack.extend((v, depth + 1, (trail, i)) for i, v in enumerate(node) if isinstance(v, (dict, list)))
 
 
 # -- overrides -----------------------------------------------------------------------------------
@@ -145,10 +202,17 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     parts = [p for p in key.strip().split(".")]
     if not all(parts):
         raise RecipeError(f"--set {text!r}: empty part in key {key!r}")
+    if len(parts) > MAX_NESTING:
+        raise RecipeError(f"--set {key[:60]!r}...: more than {MAX_NESTING} parts in the key")
     try:
         value = tomllib.loads(f"v = {raw.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw.strip()  # a bare word is taken as a string, as a shell user would expect
+    except ValueError:
+        raise RecipeError(f"--set {key}: an integer with thousands of digits") from None
+    except RecursionError:
+        raise RecipeError(f"--set {key}: value nested more than {MAX_NESTING} levels deep") from None
+    check_nesting(value, f"--set {key}")
     return parts, value
 
 
@@ -224,9 +288,11 @@ def _check_finite(value: Any, where: str) -> None:
             _check_finite(v, f"{where}[{i}]")
 
 
-def _positive_int(value: Any, where: str) -> int:
+def _positive_int(value: Any, where: str, most: int = MAX_ITERATIONS) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise RecipeError(f"{where}: expected a positive integer, got {value!r}")
+    if value > most:
+        raise RecipeError(f"{where}: {value} is more than the {most:,} allowed")
     return value
 
 
@@ -295,13 +361,18 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
     _check_keys(data, TOP_KEYS, source)
     meta = _require_table(data.get("recipe", {}), f"{source}: [recipe]")
     _check_keys(meta, META_KEYS, f"{source}: [recipe]")
-    if "seed" in meta and (isinstance(meta["seed"], bool) or not isinstance(meta["seed"], int) or meta["seed"] < 0):
-        raise RecipeError(f"{source}: [recipe] seed: expected a non-negative integer, got {meta['seed']!r}")
+    if "seed" in meta and (isinstance(meta["seed"], bool) or not isinstance(meta["seed"], int)
+                           or not 0 <= meta["seed"] <= MAX_SEED):
+        raise RecipeError(f"{source}: [recipe] seed: expected an integer in [0, 2^63 - 1], got {meta['seed']!r}")
     raw_steps = data.get("steps")
     if not isinstance(raw_steps, list) or not raw_steps:
         raise RecipeError(f"{source}: needs at least one [[steps]] table")
+    if len(raw_steps) > MAX_STEPS:
+        raise RecipeError(f"{source}: {len(raw_steps)} steps, more than the {MAX_STEPS} a recipe may have")
+    check_nesting(data, source)
     flow = _Flow()
     steps: list[Step] = []
+    earlier: list[RuleBase] = []      # the rules of ``steps``, handed to check_chain (a copy each is O(n^2))
     ids: dict[str, int] = {}
     for i, raw in enumerate(raw_steps):
         where = f"{source}: steps[{i}]"
@@ -345,7 +416,7 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
                 raise RecipeError(f"{where}: needs domain {dname!r} to be a {kind_text(kind)}, "
                                   f"but an earlier step made it a {flow.domains[dname]}")
         try:
-            rule.check_chain([s.rule for s in steps])
+            rule.check_chain(earlier)
         except (ValueError, ProcgenError) as exc:
             raise RecipeError(f"{where}: {exc}") from None
         specs = rule.field_specs()
@@ -383,6 +454,7 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
         if not isinstance(label, str):
             raise RecipeError(f"{where}: label must be a string")
         steps.append(Step(i, rule, params, iterations, until == "stable", frames, label, step_id))
+        earlier.append(rule)
     need = sum(int(s.rule.memory_estimate()) for s in steps)
     limit = memory_limit_bytes()
     if need > limit:
@@ -393,6 +465,8 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
     raw_outputs = data.get("outputs", [])
     if not isinstance(raw_outputs, list):
         raise RecipeError(f"{source}: 'outputs' must be an array of tables ([[outputs]])")
+    if len(raw_outputs) > MAX_OUTPUTS:
+        raise RecipeError(f"{source}: {len(raw_outputs)} outputs, more than the {MAX_OUTPUTS} a recipe may have")
     seen_files: set[str] = set()
     for j, raw in enumerate(raw_outputs):
         where = f"{source}: outputs[{j}]"

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -166,8 +167,13 @@ class ParamRow:
     required: bool
 
 
+@functools.lru_cache(maxsize=None)
 def type_hints(cls: type) -> dict[str, Any]:
-    """Resolved parameter annotations; unresolvable string annotations count as Any."""
+    """Resolved parameter annotations; unresolvable string annotations count as Any.
+
+    Cached per class: resolving them is most of the cost of checking a step.  Callers must not
+    modify the returned dict.
+    """
     try:
         return typing.get_type_hints(cls)
     except (NameError, TypeError):

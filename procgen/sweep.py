@@ -19,7 +19,13 @@ from typing import Any
 from .errors import RecipeError
 from .exchange import write
 from .jobs import Job, JobResult, clean_stale_temps, run_jobs
-from .recipes import parse_override
+from .recipes import MAX_SEED, parse_override
+
+#: Runs one sweep may plan (grid points x seeds): each run is a folder and a row of summary.csv,
+#: and the plan is a list in memory, so ``--seeds 1-1000000000`` is refused before it is built.
+MAX_RUNS = 100_000
+#: Grid points (parameter combinations): each one's recipe is checked before any run starts.
+MAX_GRID_POINTS = 10_000
 
 
 @dataclass
@@ -38,6 +44,9 @@ def parse_grid(spec: str) -> tuple[str, list[str]]:
     values = [v.strip() for v in raw.split(",") if v.strip()]
     if not values:
         raise RecipeError(f"--grid {spec!r}: no values")
+    if len(values) > MAX_GRID_POINTS:
+        raise RecipeError(f"--grid {key.strip()[:60]}: {len(values):,} values, more than the "
+                          f"{MAX_GRID_POINTS:,} grid points a sweep may have")
     for v in values:
         parse_override(f"{key}={v}")
     return key.strip(), values
@@ -46,23 +55,40 @@ def parse_grid(spec: str) -> tuple[str, list[str]]:
 def parse_seeds(spec: str) -> list[int]:
     """``1-100``, ``3``, or ``1,5,9`` (ranges inclusive)."""
     seeds: list[int] = []
+    shown = spec if len(spec) <= 60 else spec[:57] + "..."
     for part in spec.split(","):
         part = part.strip()
-        m = re.fullmatch(r"(\d+)-(\d+)", part)
+        m = re.fullmatch(r"(\d{1,19})-(\d{1,19})", part)
         if m:
             a, b = int(m.group(1)), int(m.group(2))
             if b < a:
-                raise RecipeError(f"--seeds {spec!r}: range {part} runs backwards")
+                raise RecipeError(f"--seeds {shown!r}: range {part} runs backwards")
+            if b > MAX_SEED:
+                raise RecipeError(f"--seeds {shown!r}: seed {b} is above 2^63 - 1")
+            if len(seeds) + b - a + 1 > MAX_RUNS:
+                raise RecipeError(f"--seeds {shown!r}: {len(seeds) + b - a + 1:,} seeds, more than the "
+                                  f"{MAX_RUNS:,} runs a sweep may have")
             seeds.extend(range(a, b + 1))
-        elif part.isdigit():
+        elif part.isdigit() and len(part) <= 19 and int(part) <= MAX_SEED:
             seeds.append(int(part))
+        elif part.isdigit():
+            raise RecipeError(f"--seeds {shown!r}: seed {part[:25]} is above 2^63 - 1")
         else:
-            raise RecipeError(f"--seeds {spec!r}: expected N, A-B or a comma list")
+            raise RecipeError(f"--seeds {shown!r}: expected N, A-B or a comma list")
+        if len(seeds) > MAX_RUNS:
+            raise RecipeError(f"--seeds {shown!r}: more than the {MAX_RUNS:,} runs a sweep may have")
     return seeds
 
 
 def plan(grids: list[str], seeds: list[int]) -> list[SweepRun]:
     axes = [parse_grid(g) for g in grids]
+    points = 1
+    for _, vals in axes:          # refused before the product is built
+        points *= len(vals)
+        if points > MAX_GRID_POINTS or points * len(seeds) > MAX_RUNS:
+            sizes = " x ".join(str(len(v)) for _, v in axes)
+            raise RecipeError(f"--grid: {sizes} values x {len(seeds)} seeds is more than a sweep may have "
+                              f"({MAX_GRID_POINTS:,} grid points, {MAX_RUNS:,} runs)")
     runs = []
     for combo in itertools.product(*[[(k, v) for v in vals] for k, vals in axes]):
         label = "_".join(f"{k.rsplit('.', 1)[-1]}-{re.sub(r'[^A-Za-z0-9.]+', '', v)}" for k, v in combo) or "base"
