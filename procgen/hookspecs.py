@@ -7,6 +7,11 @@ A plugin is any importable module listed under the ``procgen`` entry-point group
 
 and decorating functions in it with ``@procgen.hookimpl``. Every hook returns a list and the
 results of all plugins are concatenated. Built-in rules use the same hooks.
+
+Names are first come, first kept: the built-in plugins load first, and a plugin whose entry-point
+name, or any rule, exporter or recipe name, is already taken is refused whole (``procgen
+plugins`` shows it as BROKEN with the name and the plugin holding it). Prefix your names with
+your family (``lichen.grow``, ``lichen_svg``, ``lichen/rock``).
 """
 from __future__ import annotations
 
