@@ -138,11 +138,13 @@ def coerce(value: Any, tp: Any, where: str) -> Any:
 
 
 #: The magnitude no number in a parameter may exceed on a side where the parameter declares no
-#: bound of its own.  Every number a rule takes is then finite and far inside int64 and float64
-#: (products of a few stay representable), so a fuzzed ``2^63`` or ``1e15`` is refused in one
-#: line instead of overflowing a cast or an allocation deep in a step.  Lengths, counts and
-#: coordinates in the shipped recipes stay below 1e7.
+#: bound of its own: 1e9 for a real number, 2^32 for an integer (a cell count a memory estimate
+#: then refuses in its own words).  Every number a rule takes is then finite and far inside
+#: float64, and a product of two integers inside int64, so a fuzzed ``2^63`` or ``1e15`` is
+#: refused in one line instead of overflowing a cast or an allocation deep in a step.  Lengths,
+#: counts and coordinates in the shipped recipes stay below 1e7.
 DEFAULT_BOUND = 1e9
+DEFAULT_INT_BOUND = 2**32
 
 
 def check_range(value: Any, info: ParamInfo, where: str) -> None:
@@ -168,17 +170,19 @@ def check_range(value: Any, info: ParamInfo, where: str) -> None:
            or (info.gt is not None and value <= info.gt) or (info.lt is not None and value >= info.lt))
     if bad:
         raise ValueError(f"{where}: {_short(value)} is outside the allowed range {info.range_text()}")
-    if ((info.le is None and info.lt is None and value > DEFAULT_BOUND)
-            or (info.ge is None and info.gt is None and value < -DEFAULT_BOUND)):
-        raise ValueError(f"{where}: {_short(value)} is beyond {DEFAULT_BOUND:.0e}, the largest "
-                         "magnitude a parameter takes")
+    most = DEFAULT_INT_BOUND if isinstance(value, int) else DEFAULT_BOUND
+    if ((info.le is None and info.lt is None and value > most)
+            or (info.ge is None and info.gt is None and value < -most)):
+        shown = "2^32" if isinstance(value, int) else f"{most:.0e}"
+        raise ValueError(f"{where}: {_short(value)} is beyond {shown}, the largest magnitude "
+                         f"{'an integer' if isinstance(value, int) else 'a number'} parameter or option takes")
 
 
 def _short(value: Any) -> str:
     """A number as a message shows it: huge integers in float notation, never 4,000 digits."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
         return f"{value:.3e}" if abs(value) < 10**300 else "an integer of over 300 digits"
-    if isinstance(value, float) and abs(value) >= 1e15:
+    if isinstance(value, float) and abs(value) >= 1e7:
         return f"{value:g}"
     return repr(value)
 

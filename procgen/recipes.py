@@ -15,12 +15,13 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any
 
+from .budget import Budget
 from .ca.cells import kind_accepts, kind_text
 from .domains import DOMAIN_KINDS
 from .errors import PluginError, ProcgenError, RecipeError
 from .exchange.registry import field_options
 from .fields import UnitsLedger
-from .params import coerce, did_you_mean
+from .params import ParamInfo, check_range, coerce, did_you_mean
 from .rules import RuleBase
 
 if TYPE_CHECKING:
@@ -317,11 +318,12 @@ def _check_exporter_options(fmt: str, options: dict[str, Any], host: "PluginHost
     except (NameError, TypeError):   # unresolvable annotations: leave the types to the exporter
         hints = {}
     for k, v in options.items():
-        if k in hints:
-            try:
+        try:
+            if k in hints:
                 coerce(v, hints[k], f"option {k!r}")
-            except ValueError as exc:
-                raise RecipeError(f"{where}: format {fmt!r}: {exc}") from None
+            check_range(v, ParamInfo(), f"option {k!r}")   # no option takes 2^63 or 1e300 either
+        except ValueError as exc:
+            raise RecipeError(f"{where}: format {fmt!r}: {exc}") from None
 
 
 class _Flow:
@@ -373,6 +375,7 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
     flow = _Flow()
     steps: list[Step] = []
     earlier: list[RuleBase] = []      # the rules of ``steps``, handed to check_chain (a copy each is O(n^2))
+    budget = Budget(source, memory_limit_bytes())   # memory, charged step by step, then outputs
     ids: dict[str, int] = {}
     for i, raw in enumerate(raw_steps):
         where = f"{source}: steps[{i}]"
@@ -455,12 +458,9 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
             raise RecipeError(f"{where}: label must be a string")
         steps.append(Step(i, rule, params, iterations, until == "stable", frames, label, step_id))
         earlier.append(rule)
-    need = sum(int(s.rule.memory_estimate()) for s in steps)
-    limit = memory_limit_bytes()
-    if need > limit:
-        worst = max(steps, key=lambda s: s.rule.memory_estimate())
-        raise RecipeError(f"{source}: {worst.where}: needs about {need / 2**30:.1f} GiB, more than the "
-                          f"{limit / 2**30:.1f} GiB this machine can give; reduce its size")
+        budget.step(steps[-1])
+        if frames is not None:
+            budget.frame_series(steps[-1], host.exporter(frames.format))
     outputs: list[OutputSpec] = []
     raw_outputs = data.get("outputs", [])
     if not isinstance(raw_outputs, list):
@@ -492,6 +492,7 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
         if fname in seen_files:
             raise RecipeError(f"{where}: file {fname!r} is written by an earlier output too")
         seen_files.add(fname)
+        budget.output(where, fname, exporter, raw["domain"], opts)
         outputs.append(OutputSpec(raw["domain"], raw["format"], fname, opts))
     return Recipe(source, data, steps, outputs, dict(meta), base_dir)
 

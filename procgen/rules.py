@@ -6,7 +6,7 @@ import functools
 import typing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar, Protocol, runtime_checkable
+from typing import Any, ClassVar, Mapping, Protocol, runtime_checkable
 
 from .errors import MissingExtra, RecipeError
 from .fields import FieldSpec
@@ -80,13 +80,31 @@ class RuleBase:
         one-line error naming this step.
         """
 
-    def memory_estimate(self) -> int:
-        """Bytes this rule will allocate at most (from its parameters); 0 if small or unknown.
+    def memory_estimate(self, sizes: "Mapping[str, int] | None" = None) -> int:
+        """Bytes this rule will allocate at most; 0 if small or unknown.
 
-        The recipe check refuses a recipe whose estimate exceeds the machine's memory, so a
-        typo like ``size = 1000000`` fails in one line instead of swapping for an hour.
+        ``sizes`` holds the elements (cells, faces, points) of the recipe's earlier domains as far
+        as they are known (see :meth:`domain_sizes`); an override may leave the argument out and
+        estimate from its parameters alone.  The recipe check refuses a recipe whose estimate
+        exceeds the machine's memory, so a typo like ``size = 1000000`` fails in one line instead
+        of swapping for an hour.
         """
         return 0
+
+    def domain_sizes(self, sizes: "Mapping[str, int]") -> dict[str, int]:
+        """Elements (grid cells, mesh faces, points) of each domain this rule creates, as far as
+        its parameters and ``sizes`` (the earlier domains' known sizes) tell; unknown ones left out.
+
+        ``procgen check`` estimates later steps, frames and outputs from them.  By default a
+        converter's domain (``passes_fields``) is taken to be as large as its source.
+        """
+        values = self.param_values()
+        out = {}
+        for made, source in self.passes_fields.items():
+            n = sizes.get(source.format(**values))
+            if n is not None:
+                out[made.format(**values)] = n
+        return out
 
     # -- introspection --------------------------------------------------------------------
     def param_values(self) -> dict[str, Any]:

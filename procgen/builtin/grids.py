@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Mapping
 
 import numpy as np
 
@@ -36,6 +36,9 @@ class FractalNoise(RuleBase):
 
     def memory_estimate(self) -> int:
         return int(self.nx * self.ny * 8 * 24)
+
+    def domain_sizes(self, sizes: Mapping[str, int]) -> dict[str, int]:
+        return {self.grid: self.nx * self.ny}
 
     def step(self, state: State) -> bool:
         rng = state.rng()
