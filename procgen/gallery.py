@@ -25,7 +25,8 @@ from .recipes import list_recipes, parse_toml, rules_missing
 if TYPE_CHECKING:
     from .plugins import PluginHost
 
-ENTRY_KEYS = ("recipe", "seeds", "title", "figure", "caption", "quick", "set", "id", "thesis")
+ENTRY_KEYS = ("recipe", "seeds", "title", "figure", "caption", "quick", "set", "id", "thesis", "thesis_caption",
+              "differs")
 
 
 @dataclass
@@ -40,6 +41,10 @@ class Entry:
     slug: str = ""
     source: str = ""
     thesis: dict[str, float] = field(default_factory=dict)
+    #: the thesis figure's own caption, quoted, and how our entry departs from it (stand-ins,
+    #: scale, our own parameters); title, caption and differs hold placeholders (procgen.site.text)
+    thesis_caption: str = ""
+    differs: str = ""
 
 
 @dataclass
@@ -91,7 +96,8 @@ def _entry_from(raw: Any, where: str, index: int) -> Entry:
     slug = raw.get("id") or raw["recipe"].replace("/", "-")
     return Entry(raw["recipe"], list(seeds), str(raw.get("title", raw["recipe"])), str(raw.get("figure", "")),
                  str(raw.get("caption", "")), dict(raw.get("quick", {})), dict(raw.get("set", {})), slug, where,
-                 {str(k): float(v) for k, v in thesis.items()})
+                 {str(k): float(v) for k, v in thesis.items()}, str(raw.get("thesis_caption", "")),
+                 str(raw.get("differs", "")))
 
 
 def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path | None = None) -> list[Entry]:
