@@ -9,7 +9,6 @@ kill -9) resumes without redoing finished work.
 from __future__ import annotations
 
 import fnmatch
-import html
 import json
 import sys
 import time
@@ -18,9 +17,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import RecipeError
-from .exchange import write
 from .jobs import Job, JobResult, clean_stale_temps, run_jobs
-from .recipes import list_recipes, parse_toml, rules_missing
+from .recipes import find_recipe, list_recipes, parse_toml, rules_missing
+from .site import write_site
 
 if TYPE_CHECKING:
     from .plugins import PluginHost
@@ -52,6 +51,8 @@ class GalleryReport:
     out_dir: Path
     results: list[JobResult]
     seconds: float
+    #: placeholders in a title or caption that no run could fill ("<entry> seed N: {key}")
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def failed(self) -> list[JobResult]:
@@ -70,6 +71,9 @@ class GalleryReport:
                  f"in {self.seconds:.1f} s -> {self.out_dir / 'index.html'}"]
         lines += [f"  left out {r.key} seed {r.seed}: {r.error}" for r in self.left_out]
         lines += [f"  FAILED {r.key} seed {r.seed}: {r.error}" for r in self.failed]
+        if self.warnings:
+            lines.append(f"  {len(self.warnings)} placeholders no run fills (shown as ?): "
+                         + "; ".join(self.warnings[:5]) + (" ..." if len(self.warnings) > 5 else ""))
         return "\n".join(lines)
 
 
@@ -168,192 +172,18 @@ def entry_job(entry: Entry, seed: int, out_root: Path, quick: bool) -> Job:
 
 def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: int = 1, quick: bool = False,
                   out_dir: Path | None = None, force: bool = False, progress: bool | None = None,
-                  scheduler: Any = None) -> GalleryReport:
+                  scheduler: Any = None, gallery_file: Path | None = None) -> GalleryReport:
     """Render all (filtered) entries with ``jobs`` processes, or on the dask cluster at ``scheduler``
-    (an address or a ``dask.distributed.Client``), then write index.html."""
+    (an address or a ``dask.distributed.Client``), then write the site (procgen.site). The
+    entries are every plugin's gallery lists, or the one list ``gallery_file``."""
     t0 = time.perf_counter()
     out = Path(out_dir) if out_dir else Path("gallery") / "out"
     out.mkdir(parents=True, exist_ok=True)
     clean_stale_temps(out)
-    entries = load_gallery(host, only)
+    entries = load_gallery(host, only, gallery_file)
     batch = [entry_job(e, s, out, quick) for e in entries for s in e.seeds]
     results = run_jobs(batch, host, processes=jobs, scheduler=scheduler, force=force, desc="gallery",
                        progress=progress)
-    write_index(out, entries, results, quick)
-    return GalleryReport(out, results, time.perf_counter() - t0)
-
-
-#: front-page thumbnails: PNG previews this wide; SVGs up to this size are shown as they are
-THUMB_WIDTH = 360
-SVG_THUMB_BYTES = 300_000
-
-
-def _pictures(files: list[str]) -> list[str]:
-    """The entry's pictures, most telling first: previews, other outputs, then its last frames
-    (an entry whose only pictures are frames still shows one)."""
-    pics = [f for f in files if f.endswith((".svg", ".png")) and not f.endswith("_texture.png")]
-    frames = sorted(f for f in pics if f.startswith("frames/"))
-    pics = [f for f in pics if not f.startswith("frames/")]
-    previews = [f for f in pics if "preview" in f]
-    return previews + [f for f in pics if f not in previews] + frames[::-1]
-
-
-def _thumbnail(out: Path, base: str, name: str) -> tuple[str, int, int] | None:
-    """(src, width, height) of a light front-page picture for ``base/name``, or None when the
-    picture is near-blank or an SVG too heavy for a thumbnail. PNGs are scaled down once into
-    ``_thumbs/`` (redone only when the run's file is newer)."""
-    import io
-
-    import numpy as np
-    from PIL import Image, ImageStat
-
-    src = out / base / name
-    if name.endswith(".svg"):
-        return (f"{base}/{name}", 0, 0) if src.stat().st_size <= SVG_THUMB_BYTES else None
-    rel = f"_thumbs/{base}/{name.replace('/', '_')}"
-    dst = out / rel
-    if not dst.is_file() or dst.stat().st_mtime_ns < src.stat().st_mtime_ns:
-        with Image.open(src) as img:
-            if img.mode in ("I", "I;16", "I;16B", "F"):        # 16-bit heightmaps: stretch to 8 bits
-                a = np.asarray(img, dtype=np.float64)
-                lo, hi = float(a.min()), float(a.max())
-                img = Image.fromarray(np.uint8(np.round(255 * (a - lo) / (hi - lo if hi > lo else 1))))
-            img = img.convert("RGBA" if "A" in img.mode else "RGB")
-            img.thumbnail((THUMB_WIDTH, THUMB_WIDTH * 2))
-            buf = io.BytesIO()
-            img.save(buf, format="PNG", optimize=True)
-        write(dst, buf.getvalue())
-    with Image.open(dst) as img:
-        size = img.size
-        if max(ImageStat.Stat(img.convert("L")).stddev) < 2.0:      # a near-blank map says nothing
-            return None
-    return rel, size[0], size[1]
-
-
-def _thumbs_html(out: Path, base: str, files: list[str], limit: int = 4) -> str:
-    cells = []
-    for f in _pictures(files):
-        t = _thumbnail(out, base, f)
-        if t is not None:
-            src, w, h = t
-            size = f' width="{w}" height="{h}"' if w else ""
-            cells.append(f'<a href="{base}/{html.escape(f)}"><img src="{html.escape(src)}"{size} '
-                         f'loading="lazy" alt="{html.escape(f)}"></a>')
-        if len(cells) == limit:
-            break
-    return "".join(cells)
-
-
-def _params_html(run_json: Path) -> str:
-    """A collapsible list of every step's parameters, read back from the entry's run.json."""
-    try:
-        info = json.loads(run_json.read_text())
-    except (OSError, ValueError):
-        return ""
-    rows = []
-    for st in info.get("steps", []):
-        params = ", ".join(f"{k}={json.dumps(v, default=str)}" for k, v in sorted(st.get("params", {}).items()))
-        rows.append(f"<li><code>{html.escape(st.get('rule', ''))}</code> &times;{st.get('iterations', '')}: "
-                    f"{html.escape(params)}</li>")
-    return f'<details><summary>parameters</summary><ul class="params">{"".join(rows)}</ul></details>'
-
-
-#: how a report reads, by the end of its key: (unit, factor); fractions are shown as percentages
-_REPORT_UNITS = (("_pct", "%", 1.0), ("completion_r", "%", 100.0), ("_fraction", "%", 100.0),
-                 ("start_share", "%", 100.0), ("saturation_ratio", "x", 1.0), ("steps_to_", "steps", 1.0),
-                 ("n_cells", "cells", 1.0), ("n_faces", "triangles", 1.0))
-
-
-def report_unit(key: str) -> tuple[str, float]:
-    """(unit, factor) a report is read in, from its key (e.g. a completion 0.962 -> 96.2 %)."""
-    leaf = key.rsplit(".", 1)[-1]
-    for end, unit, factor in _REPORT_UNITS:
-        if end in leaf:
-            return unit, factor
-    return "", 1.0
-
-
-def format_number(value: Any, unit: str = "", factor: float = 1.0) -> str:
-    """A number as people read it: integers whole (thousands separated), others to 3
-    significant figures; ``None`` as a dash; the unit after a thin space ("96.2 %")."""
-    if value is None:
-        return "-"
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return str(value)
-    v = value * factor
-    if abs(v) < 1e15 and float(v).is_integer():
-        text = f"{int(v):,}"
-    elif 1000 <= abs(v) < 1e15:
-        text = f"{int(float(f'{v:.3g}')):,}"           # 3 significant figures, no exponent
-    else:
-        text = f"{v:.3g}"
-    return f"{text} {unit}".rstrip() if unit not in ("x",) else f"{text}x"
-
-
-def report_text(key: str, value: Any, thesis: dict[str, float]) -> str:
-    """``key = measured`` with the thesis's figure beside it when the entry names one."""
-    unit, factor = report_unit(key)
-    text = f"{key} = {format_number(value, unit, factor)}"
-    if key in thesis:
-        text += f" (thesis: {format_number(thesis[key], unit, factor)})"
-    return text
-
-
-def write_index(out: Path, entries: list[Entry], results: list[JobResult], quick: bool) -> None:
-    """The contact sheet: a card per entry+seed with thumbnails, figure, caption and links."""
-    by = {(r.key, r.seed): r for r in results}
-    families: dict[str, list[str]] = {}          # the recipe's folder: clouds, terrain, meshes, ...
-    for e in entries:
-        cards = families.setdefault(e.recipe.split("/")[0] if "/" in e.recipe else "files", [])
-        for s in e.seeds:
-            r = by.get((e.slug, s))
-            if r is None:
-                continue
-            base = f"{e.slug}/seed-{s}"
-            if r.status in ("failed", "unavailable"):
-                what = "failed" if r.status == "failed" else "left out"
-                body = f'<p class="err">{what}: {html.escape(r.error)}</p>'
-            else:
-                imgs = _thumbs_html(out, base, r.files)
-                links = " ".join(f'<a href="{base}/{html.escape(f)}">{html.escape(f)}</a>'
-                                 for f in r.files if not f.startswith("frames/"))
-                reps = {k: v for k, v in r.reports.items() if not isinstance(v, (dict, list))}
-                first = [k for k in e.thesis if k in reps]          # the thesis's numbers lead
-                rep = ", ".join(report_text(k, reps[k], e.thesis) for k in first + sorted(set(reps) - set(first)))
-                body = (f'<div class="thumbs">{imgs}</div><p class="files">{links}</p>'
-                        f'<p class="rep">{html.escape(rep)}{" &middot; " if rep else ""}'
-                        f'{r.seconds:.1f} s</p>{_params_html(out / base / "run.json")}')
-            cards.append(f'<div class="card"><h2>{html.escape(e.title)}</h2>'
-                         f'<p class="fig">{html.escape(e.figure)} &middot; recipe <code>{html.escape(e.recipe)}</code>'
-                         f' &middot; seed {s}</p><p>{html.escape(e.caption)}</p>{body}</div>')
-    toc = " &middot; ".join(f'<a href="#{html.escape(f)}">{html.escape(f)}</a> ({len(c)})'
-                            for f, c in families.items())
-    sections = "\n".join(f'<section id="{html.escape(f)}"><h2 class="family">{html.escape(f)}</h2>'
-                         f'<div class="grid">\n{chr(10).join(c)}\n</div></section>' for f, c in families.items())
-    page = f"""<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>procgen gallery</title>
-<style>
-body {{ font-family: sans-serif; margin: 1.5em; background: #f4f4f2; color: #222; }}
-.grid {{ display: grid; grid-template-columns: repeat(auto-fill, minmax(420px, 1fr)); gap: 1em; }}
-.card {{ background: white; padding: .8em; border-radius: 6px; box-shadow: 0 1px 3px #0002; }}
-.card h2 {{ font-size: 1.05em; margin: 0 0 .2em; }}
-.thumbs img {{ max-width: 48%; max-height: 220px; width: auto; height: auto; margin: 1px; background: #ddd; }}
-h2.family {{ text-transform: capitalize; border-bottom: 1px solid #ccc; margin-top: 1.5em; }}
-nav {{ font-size: .9em; }}
-.fig, .files, .rep {{ font-size: .8em; color: #555; }}
-.err {{ color: #a00; }}
-details {{ font-size: .75em; color: #444; }} .params {{ padding-left: 1.2em; margin: .3em 0; }}
-</style></head><body>
-<h1>procgen gallery{' (quick)' if quick else ''}</h1>
-<nav>{toc}</nav>
-{sections}
-<script>
-// lets a headless browser (and a curious reader) check that every thumbnail decoded
-window.addEventListener("load", () => {{
-  const imgs = Array.from(document.images);
-  document.body.dataset.images = imgs.length;
-  document.body.dataset.broken = imgs.filter(i => !(i.complete && i.naturalWidth > 0)).length;
-}});
-</script></body></html>
-"""
-    write(out / "index.html", page)
+    warnings = write_site(out, entries, results, {e.slug: overrides_for(e, quick) for e in entries},
+                          {e.slug: find_recipe(e.recipe, host) for e in entries}, quick)
+    return GalleryReport(out, results, time.perf_counter() - t0, warnings)

@@ -8,7 +8,8 @@ import pytest
 from PIL import Image
 
 from procgen import InputError, TriMesh
-from procgen.gallery import _entry_from, format_number, report_text
+from procgen.gallery import _entry_from
+from procgen.site.numbers import format_number, report_text
 from procgen.errors import RecipeError
 from procgen.exchange.preview import preview_png
 from procgen_surface.domain import SurfaceCells

@@ -60,7 +60,7 @@ def test_front_page_thumbnails_are_small_lazy_and_never_blank(tmp_path):
     import numpy as np
     from PIL import Image
 
-    from procgen.gallery import THUMB_WIDTH, _thumbs_html
+    from procgen.site.pictures import THUMB_WIDTH, thumbs_html
 
     base = tmp_path / "e" / "seed-1"
     (base / "frames" / "step1").mkdir(parents=True)
@@ -69,11 +69,12 @@ def test_front_page_thumbnails_are_small_lazy_and_never_blank(tmp_path):
     Image.fromarray(np.full((500, 500), 200, np.uint8)).save(base / "blank.png")     # a map that says nothing
     Image.fromarray((rng.random((300, 300)) * 65535).astype(np.uint16)).save(base / "height.png")
     Image.fromarray(rng.integers(0, 255, (400, 400), dtype=np.uint8)).save(base / "frames/step1/frame_0010.png")
-    page = _thumbs_html(tmp_path, "e/seed-1", ["blank.png", "big.png", "height.png"])
+    page = thumbs_html(tmp_path, "e/seed-1", ["blank.png", "big.png", "height.png"])
     srcs = re.findall(r'<img src="([^"]+)" width="(\d+)" height="(\d+)" loading="lazy"', page)
-    assert [s for s, _, _ in srcs] == ["_thumbs/e/seed-1/big.png", "_thumbs/e/seed-1/height.png"]
+    assert [s for s, _, _ in srcs] == [f"_thumbs/e/seed-1/{THUMB_WIDTH}-big.webp",
+                                       f"_thumbs/e/seed-1/{THUMB_WIDTH}-height.webp"]
     assert all(int(w) <= THUMB_WIDTH for _, w, _ in srcs)
     assert sum((tmp_path / s).stat().st_size for s, _, _ in srcs) < (base / "big.png").stat().st_size / 5
     # an entry whose only pictures are frames shows its last frame
-    only_frames = _thumbs_html(tmp_path, "e/seed-1", ["frames/step1/frame_0010.png"])
-    assert "frames_step1_frame_0010.png" in only_frames
+    only_frames = thumbs_html(tmp_path, "e/seed-1", ["frames/step1/frame_0010.png"])
+    assert "frames_step1_frame_0010.webp" in only_frames

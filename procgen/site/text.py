@@ -40,7 +40,8 @@ def _step(info: dict[str, Any], step_id: str) -> dict[str, Any] | None:
         if str(st.get("id", "")) == step_id or str(i) == step_id:
             done = ran[i] if i < len(ran) and isinstance(ran[i], dict) else {}
             return {"iterations": done.get("iterations", st.get("iterations", 1)),
-                    "params": {**st.get("params", {}), **done.get("params", {})}}
+                    "params": {**st.get("params", {}), **done.get("params", {})},
+                    "frames": st.get("frames", {})}
     return None
 
 
@@ -56,6 +57,8 @@ def lookup(key: str, info: dict[str, Any], thesis: dict[str, float]) -> str | No
             return None
         if parts[2:] == ["iterations"]:
             return format_number(st.get("iterations", 1))
+        if parts[2:] == ["frames", "every"] and "every" in st["frames"]:
+            return format_number(st["frames"]["every"])
         if len(parts) == 4 and parts[2] == "params" and parts[3] in st.get("params", {}):
             v = st["params"][parts[3]]
             return ", ".join(format_number(x) for x in v) if isinstance(v, list) else format_number(v)
