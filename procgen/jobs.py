@@ -9,8 +9,9 @@ dask.distributed cluster often share no filesystem with it. So
 - a worker (a local process or a dask worker on another machine) gets the resolved recipe itself,
   not a path, renders the run in its own scratch space and hands back the files' bytes;
 - the client commits each result as it arrives: the files into a temporary sibling folder, the
-  stamp last, then one rename. A killed client or worker never leaves a half-written run folder,
-  and a job that dask re-runs after its worker died is written once, when its result arrives.
+  stamp last, then one rename. A killed client or worker, or a full disk, never leaves a
+  half-written run folder (a refused write makes that run "failed" and the batch goes on), and
+  a job that dask re-runs after its worker died is written once, when its result arrives.
 
 Results are taken as they complete with a bounded number in flight, so neither the client nor
 the cluster ever holds the whole batch; a failing job becomes a "failed" result with its error
@@ -23,7 +24,6 @@ import functools
 import hashlib
 import itertools
 import json
-import os
 import shutil
 import sys
 import tempfile
@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 from .accel import share_cores
 from .errors import MissingExtra, ProcgenError, RecipeError, printable
-from .exchange import write
+from .exchange.write import STAGING_PREFIX, write_folder
 from .recipes import RESERVED_FILES
 
 if TYPE_CHECKING:
@@ -171,25 +171,21 @@ def compute_job(job: Job, host: "PluginHost | None" = None) -> JobOutput:
 
 
 def commit(job: Job, out: JobOutput) -> None:
-    """Write a done job's files into its folder: temporary sibling, stamp last, one rename."""
+    """Write a done job's files into its folder: staged beside it, stamp last, one rename.
+
+    Raises WriteError (a full disk...) and leaves the folder as it was.
+    """
     res = out.result
-    final = Path(job.folder)
-    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    for rel, data in out.files.items():
-        write(tmp / rel, data)
     info = {"hash": job.hash, "recipe": job.recipe, "overrides": list(job.overrides), "seed": job.seed,
             "seconds": round(res.seconds, 3), "files": res.files, "reports": res.reports}
-    write(tmp / STAMP, json.dumps(info, indent=2, sort_keys=True, default=str))
-    if final.exists():
-        shutil.rmtree(final)
-    os.replace(tmp, final)
+    write_folder(job.folder, {**out.files, STAMP: json.dumps(info, indent=2, sort_keys=True, default=str)},
+                 replace=True)
 
 
 def clean_stale_temps(root: Path) -> None:
     """Remove temporary folders left by killed jobs (they are never complete)."""
     if root.is_dir():
-        for tmp in root.rglob(".tmp-*"):
+        for tmp in root.rglob(f"{STAGING_PREFIX}*"):
             if tmp.is_dir():
                 shutil.rmtree(tmp, ignore_errors=True)
 
@@ -278,7 +274,10 @@ def run_jobs(jobs: Sequence[Job], host: "PluginHost", *, processes: int = 1, sch
             try:
                 for i, job, out in _outputs(todo, executor, window, host):
                     if out.result.status == "done":
-                        commit(job, out)
+                        try:
+                            commit(job, out)
+                        except ProcgenError as exc:     # a full disk: this run failed, the rest go on
+                            out = JobOutput(replace(_failed(job, 0.0, exc), seconds=out.result.seconds))
                     results[i] = out.result
                     bar.set_postfix_str(f"{job.key} seed {job.seed} {out.result.status}", refresh=False)
                     bar.update(1)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from .errors import InputError, PluginError, ProcgenError
-from .exchange import write
+from .exchange.write import write_folder
 from .recipes import OutputSpec, Recipe
 from .state import State, StepRecord
 
@@ -74,8 +74,9 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
         save_state: bool = False) -> RunResult:
     """Run every step of a checked recipe, then write its outputs and run.json into ``out_dir``.
 
-    Nothing is written when a step or an exporter fails; without ``out_dir`` nothing is exported
-    at all (frames included). ``progress=None`` shows bars only on a terminal.
+    Nothing is written when a step or an exporter fails, nor when the disk refuses one of the
+    files (WriteError names it; the folder keeps what it had); without ``out_dir`` nothing is
+    exported at all (frames included). ``progress=None`` shows bars only on a terminal.
 
     A step's iterations run back to back: between two of them only its own rule writes the
     state (frames are exported after its ``publish``), so a rule may keep caches across its
@@ -143,8 +144,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
             "meta": recipe.meta, "resolved_recipe": recipe.data, "provenance": prov,
             "steps": step_info, "reports": state.reports, "files": sorted([*pending, "run.json"])}
     pending["run.json"] = (json.dumps(info, indent=2, sort_keys=True, default=_json_default) + "\n").encode()
-    for rel, data in pending.items():
-        write(out_dir / rel, data)
+    write_folder(out_dir, pending)     # all or nothing; run.json, last in ``pending``, lands last
     result.files = sorted(pending)
     result.run_info = info
     return result
