@@ -26,7 +26,8 @@ from .. import portable
 from ..data import builtin_rules_dir
 from ..domains import Grid, TriMesh
 from ..errors import InputError, MissingExtra
-from ..exchange.raster_read import Raster, RasterInfo, metres_per_degree, probe_raster, read_raster
+from ..exchange.input_files import refuse_special
+from ..exchange.raster_read import Raster, RasterInfo, metres_per_degree, probe_raster, read_raster, sidecar_of
 from ..fields import FieldSpec
 from ..params import param
 from ..rules import RuleBase
@@ -43,6 +44,7 @@ def resolve_data_path(path: str, base_dir: Path | None) -> Path:
     candidates = [p] if p.is_absolute() else \
         ([base_dir / p] if base_dir else []) + [Path.cwd() / p, builtin_rules_dir() / p]
     for c in candidates:
+        refuse_special(c, path)
         if c.is_file():
             return c
     raise InputError(f"file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
@@ -162,6 +164,14 @@ class LoadGrid(RuleBase):
         if info.max_value is None and (self.z_min is not None or self.z_max is not None):
             raise ValueError(f"{info.path.name}: z_min/z_max scale integer images; this file holds heights")
         rows, cols = info.shape
+        if info.format != "geotiff":
+            try:
+                side = sidecar_of(info.path)
+            except InputError as exc:
+                raise ValueError(str(exc)) from None
+            if side and list(side["shape"]) != [rows, cols]:
+                raise ValueError(f"{info.path.name}: sidecar shape {side['shape']} does not match the "
+                                 f"file's {[rows, cols]}; remove the stale .json")
         target_shape(rows, cols, float(cols), float(rows), self.nx, self.ny, True)
         from ..recipes import memory_limit_bytes
 
@@ -272,6 +282,15 @@ class ImageFieldParams(RuleBase):
             raise ValueError(f"{info.path.name}: a GeoTIFF is a height raster; load it with grid.load")
         if self.channels == "rgb" and info.bands != 3:
             raise ValueError(f"{info.path.name}: channels = 'rgb' but the image is greyscale")
+
+    def memory_estimate(self, sizes: object = None) -> int:
+        """Decoding, scaling and resampling: about four float64 copies of the image's bands."""
+        try:
+            info = probe_raster(resolve_data_path(self.file, self.recipe_dir))
+        except InputError:
+            return 0                # validate has refused the file in one line already
+        rows, cols = info.shape
+        return int(8 * 4 * rows * cols * max(info.bands, 1))
 
     def image(self, state: State) -> tuple[np.ndarray, np.ndarray, str]:
         """(values scaled to [vmin, vmax], north-up; valid mask; file name)."""

@@ -59,6 +59,16 @@ def _bound(name: str, size: int, kind: str) -> None:
                          f"procgen reads from a {kind} file")
 
 
+def refuse_special(path: str | Path, name: str | None = None) -> None:
+    """InputError if ``path`` exists but is not a regular file (a folder, FIFO, device...):
+    for finding a file among candidate folders, where a missing one is not yet an error."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    _refuse_mode(printable(name if name is not None else str(path)), mode)
+
+
 def check_input(path: str | Path, kind: str, name: str | None = None) -> int:
     """The size of ``path`` after refusing (InputError, one line naming ``name`` or the path)
     anything that is missing, not a regular file, or larger than ``MAX_BYTES[kind]``."""
