@@ -43,13 +43,14 @@ def card(out: Path, entry: "Entry", r: "JobResult") -> str:
     info = run_info(out / base)
     title = fill(entry.title, info, entry.thesis)[0]
     caption = fill(entry.caption, info, entry.thesis)[0]
+    differs = fill(entry.differs, info, entry.thesis)[0]
     if r.status in ("failed", "unavailable"):
         what = "failed" if r.status == "failed" else "left out"
         body = f'<p class="err">{what}: {html.escape(r.error)}</p>'
     else:
         body = (f'<div class="thumbs">{thumbs_html(out, base, r.files, href=page)}</div>'
                 f'{_thesis_numbers(info.get("reports", r.reports), entry.thesis)}'
-                f'{"<p class=meta>differs from the thesis: see the page</p>" if entry.differs else ""}'
+                f'{f"<p class=differs><b>Differs:</b> {differs}</p>" if differs else ""}'
                 f'<p class="meta">{r.seconds:.1f} s &middot; <a href="{html.escape(page)}">page, files and numbers</a></p>')
     return (f'<div class="card"><h3><a href="{html.escape(page)}">{title}</a></h3>'
             f'<p class="fig">{html.escape(entry.figure)} &middot; <code>{html.escape(entry.recipe)}</code>'
