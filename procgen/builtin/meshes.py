@@ -1,7 +1,6 @@
 """Mesh generators and converters: Delaunay, file loading, primitives, boundary loops."""
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
@@ -11,6 +10,8 @@ import numpy as np
 from ..data import meshes_dir
 from ..domains import PointSet, Polylines, TriMesh
 from ..errors import InputError
+from ..exchange.input_files import refuse_special
+from ..exchange.mesh_read import check_mesh_file, read_mesh
 from ..fields import FieldSpec
 from ..geometry import ccw_faces
 from ..params import param
@@ -58,6 +59,7 @@ def resolve_mesh_path(path: str, base_dir: Path | None) -> Path:
     p = Path(path).expanduser()
     candidates = [p] if p.is_absolute() else ([base_dir / p] if base_dir else []) + [Path.cwd() / p, meshes_dir() / p]
     for c in candidates:
+        refuse_special(c, path)
         if c.is_file():
             return c
     raise InputError(f"mesh.load: file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
@@ -68,7 +70,10 @@ UV_FIELD = "mesh__uv"
 
 
 def load_mesh_file(path: Path) -> TriMesh:
-    """Read OBJ/PLY/STL/OFF/GLB with trimesh (quads and n-gons triangulated), as one TriMesh.
+    """Read OBJ/PLY/STL/OFF/glTF/GLB with trimesh (quads and n-gons triangulated), as one TriMesh.
+
+    The file and every file it names are checked first (procgen.exchange.mesh_read: regular
+    files only, bounded in size); materials are not read.
 
     Texture coordinates in the file become the face field ``mesh__uv`` (m, 3, 2): one UV per
     face corner, so a seam (one position, two UVs) keeps both sides' coordinates even after
@@ -76,12 +81,7 @@ def load_mesh_file(path: Path) -> TriMesh:
     """
     import trimesh
 
-    try:
-        with warnings.catch_warnings():      # trimesh warns about materials it cannot find
-            warnings.simplefilter("ignore")
-            loaded: Any = trimesh.load(str(path), force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types for broken files
-        raise InputError(f"mesh.load: {path.name}: cannot read ({type(exc).__name__}: {exc})") from None
+    loaded: Any = read_mesh(path)
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) < 3:
         raise InputError(f"mesh.load: {path.name}: no triangles in the file")
     faces = np.asarray(loaded.faces)
@@ -123,6 +123,12 @@ class LoadMesh(RuleBase):
     mesh: str = param("mesh", doc="name of the TriMesh to create")
     clean: bool = param(True, doc="merge duplicate vertices, drop degenerate and duplicate faces")
     normalize: bool = param(False, doc="fit into a unit box centred at the origin")
+
+    def validate(self) -> None:
+        try:
+            check_mesh_file(resolve_mesh_path(self.path, self.recipe_dir))
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
 
     def step(self, state: State) -> bool:
         mesh = load_mesh_file(resolve_mesh_path(self.path, state.base_dir))
