@@ -85,6 +85,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="glob on recipe names or titles (repeatable)")
     g.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 1)), help="parallel processes")
     g.add_argument("--quick", action="store_true", help="small sizes for a fast check (CI)")
+    g.add_argument("--scale", choices=["thesis"], default=None,
+                   help="run the entries that are smaller than the thesis by default at the thesis's "
+                        "own size (into gallery/out-thesis)")
     g.add_argument("--out", type=Path, default=None, help="output folder (default gallery/out)")
     g.add_argument("--force", action="store_true", help="re-render entries that are up to date")
     g.add_argument("--list", action="store_true", help="list the entries and exit")
@@ -216,12 +219,15 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if args.command == "gallery":
         from .gallery import build_gallery, load_gallery
 
+        if args.quick and args.scale:
+            raise RecipeError("gallery: --quick and --scale thesis ask for opposite sizes; choose one")
         if args.list:
             for e in load_gallery(host, args.only):
-                print(f"{e.slug:<40} {e.figure:<16} {e.title}")
+                if args.scale != "thesis" or e.thesis_scale:
+                    print(f"{e.slug:<40} {e.figure:<16} {e.title}")
             return 0
         report = build_gallery(host, only=args.only, jobs=args.jobs, quick=args.quick, out_dir=args.out,
-                               force=args.force, scheduler=args.scheduler)
+                               force=args.force, scheduler=args.scheduler, thesis_scale=args.scale == "thesis")
         print(report.summary())
         return min(len(report.failed), 125)   # the exit code says how many entries failed
     if args.command == "sweep":

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from .plugins import PluginHost
 
 ENTRY_KEYS = ("recipe", "seeds", "title", "figure", "caption", "quick", "set", "id", "thesis", "thesis_caption",
-              "differs")
+              "differs", "thesis_scale", "thesis_time")
 
 
 @dataclass
@@ -44,6 +44,10 @@ class Entry:
     #: scale, our own parameters); title, caption and differs hold placeholders (procgen.site.text)
     thesis_caption: str = ""
     differs: str = ""
+    #: overrides that run the entry at the thesis's own size (``procgen gallery --scale thesis``),
+    #: and the run time the thesis states for it, quoted
+    thesis_scale: dict[str, Any] = field(default_factory=dict)
+    thesis_time: str = ""
 
 
 @dataclass
@@ -90,7 +94,7 @@ def _entry_from(raw: Any, where: str, index: int) -> Entry:
     seeds = raw.get("seeds", [1])
     if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) and s >= 0 for s in seeds):
         raise RecipeError(f"{where}: seeds must be a list of non-negative integers")
-    for key in ("quick", "set"):
+    for key in ("quick", "set", "thesis_scale"):
         if not isinstance(raw.get(key, {}), dict):
             raise RecipeError(f"{where}: {key} must be a table of KEY = VALUE overrides")
     thesis = raw.get("thesis", {})
@@ -101,7 +105,7 @@ def _entry_from(raw: Any, where: str, index: int) -> Entry:
     return Entry(raw["recipe"], list(seeds), str(raw.get("title", raw["recipe"])), str(raw.get("figure", "")),
                  str(raw.get("caption", "")), dict(raw.get("quick", {})), dict(raw.get("set", {})), slug, where,
                  {str(k): float(v) for k, v in thesis.items()}, str(raw.get("thesis_caption", "")),
-                 str(raw.get("differs", "")))
+                 str(raw.get("differs", "")), dict(raw.get("thesis_scale", {})), str(raw.get("thesis_time", "")))
 
 
 def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path | None = None) -> list[Entry]:
@@ -147,10 +151,13 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
     return entries
 
 
-def overrides_for(entry: Entry, quick: bool) -> list[str]:
+def overrides_for(entry: Entry, quick: bool, thesis_scale: bool = False) -> list[str]:
+    """The entry's ``--set`` overrides: its own, then its quick or thesis-scale sizes."""
     items = dict(entry.set)
     if quick:
         items.update(entry.quick)
+    elif thesis_scale:
+        items.update(entry.thesis_scale)
     return [f"{k}={json.dumps(v) if isinstance(v, str) else _toml_value(v)}" for k, v in items.items()]
 
 
@@ -164,26 +171,32 @@ def _toml_value(v: Any) -> str:
     return repr(v)
 
 
-def entry_job(entry: Entry, seed: int, out_root: Path, quick: bool) -> Job:
+def entry_job(entry: Entry, seed: int, out_root: Path, quick: bool, thesis_scale: bool = False) -> Job:
     """The job that renders ``entry`` with ``seed`` into ``out_root/<slug>/seed-<seed>``."""
-    overrides = overrides_for(entry, quick) + (["recipe.notes=\"quick\""] if quick else [])
+    overrides = overrides_for(entry, quick, thesis_scale) + (["recipe.notes=\"quick\""] if quick else [])
     return Job(entry.slug, entry.recipe, tuple(overrides), seed, str(out_root / entry.slug / f"seed-{seed}"))
 
 
 def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: int = 1, quick: bool = False,
                   out_dir: Path | None = None, force: bool = False, progress: bool | None = None,
-                  scheduler: Any = None, gallery_file: Path | None = None) -> GalleryReport:
+                  scheduler: Any = None, gallery_file: Path | None = None,
+                  thesis_scale: bool = False) -> GalleryReport:
     """Render all (filtered) entries with ``jobs`` processes, or on the dask cluster at ``scheduler``
     (an address or a ``dask.distributed.Client``), then write the site (procgen.site). The
-    entries are every plugin's gallery lists, or the one list ``gallery_file``."""
+    entries are every plugin's gallery lists, or the one list ``gallery_file``. With
+    ``thesis_scale``, only the entries that run smaller than the thesis by default, at the
+    thesis's size, into ``gallery/out-thesis``."""
     t0 = time.perf_counter()
-    out = Path(out_dir) if out_dir else Path("gallery") / "out"
+    out = Path(out_dir) if out_dir else Path("gallery") / ("out-thesis" if thesis_scale else "out")
     out.mkdir(parents=True, exist_ok=True)
     clean_stale_temps(out)
     entries = load_gallery(host, only, gallery_file)
-    batch = [entry_job(e, s, out, quick) for e in entries for s in e.seeds]
+    if thesis_scale:
+        entries = [e for e in entries if e.thesis_scale]
+    batch = [entry_job(e, s, out, quick, thesis_scale) for e in entries for s in e.seeds]
     results = run_jobs(batch, host, processes=jobs, scheduler=scheduler, force=force, desc="gallery",
                        progress=progress)
-    warnings = write_site(out, entries, results, {e.slug: overrides_for(e, quick) for e in entries},
-                          {e.slug: find_recipe(e.recipe, host) for e in entries}, quick)
+    warnings = write_site(out, entries, results, {e.slug: overrides_for(e, quick, thesis_scale) for e in entries},
+                          {e.slug: find_recipe(e.recipe, host) for e in entries},
+                          "quick sizes" if quick else "the thesis's sizes" if thesis_scale else "")
     return GalleryReport(out, results, time.perf_counter() - t0, warnings)

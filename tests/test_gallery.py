@@ -78,3 +78,20 @@ def test_front_page_thumbnails_are_small_lazy_and_never_blank(tmp_path):
     # an entry whose only pictures are frames shows its last frame
     only_frames = thumbs_html(tmp_path, "e/seed-1", ["frames/step1/frame_0010.png"])
     assert "frames_step1_frame_0010.webp" in only_frames
+
+
+def test_thesis_scale_entries_check_at_the_thesis_size(host):
+    """``procgen gallery --scale thesis`` runs only entries with a thesis_scale table, each of
+    whose overrides lands in a step that passes ``procgen check`` (memory estimate included)."""
+    from procgen.gallery import overrides_for
+    from procgen.recipes import load_recipe
+
+    scaled = [e for e in load_gallery(host) if e.thesis_scale]
+    assert {"meshes-plate-5-8", "meshes-plate-5-17", "cellnet-fig-1"} <= {e.slug for e in scaled}
+    for e in scaled:
+        recipe = load_recipe(e.recipe, host, overrides_for(e, False, thesis_scale=True))
+        by_id = {s.id: s for s in recipe.steps}
+        for key, value in e.thesis_scale.items():
+            _, step, _, name = key.split(".")
+            assert by_id[step].params[name] == value, (e.slug, key)
+        assert overrides_for(e, True, thesis_scale=True) == overrides_for(e, True)   # quick wins

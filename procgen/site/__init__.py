@@ -32,7 +32,7 @@ def copy_assets(out: Path) -> None:
 
 
 def write_site(out: Path, entries: list["Entry"], results: list["JobResult"], overrides: dict[str, list[str]],
-               recipe_files: dict[str, Path], quick: bool) -> list[str]:
+               recipe_files: dict[str, Path], scale: str = "") -> list[str]:
     """Write the whole site under ``out``; returns the placeholders no run could fill
     (``"<entry> seed N: {key}"``), which the gallery reports."""
     copy_assets(out)
@@ -41,6 +41,6 @@ def write_site(out: Path, entries: list["Entry"], results: list["JobResult"], ov
     for e in entries:
         runs = [by[(e.slug, s)] for s in e.seeds if (e.slug, s) in by]
         if runs:
-            missing += write_entry_page(out, e, runs, overrides[e.slug], recipe_files.get(e.slug), quick)
-    write_front_page(out, entries, by, quick)
+            missing += write_entry_page(out, e, runs, overrides[e.slug], recipe_files.get(e.slug), scale)
+    write_front_page(out, entries, by, scale)
     return missing

@@ -45,6 +45,12 @@ def reproduce_command(entry: "Entry", seed: int, overrides: list[str]) -> str:
     return " ".join(shlex.quote(w) for w in words + ["--out", f"out/{entry.slug}"])
 
 
+def run_time(seconds: float, thesis_time: str) -> str:
+    """This run's time, and the thesis's for its figure where the thesis states one."""
+    ours = f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+    return html.escape(f"{ours} (thesis: {thesis_time})" if thesis_time else ours)
+
+
 def reports_table(reports: dict[str, Any], thesis: dict[str, float]) -> str:
     """Every report in its unit to 3 significant figures, the thesis's number beside it."""
     rows = []
@@ -130,7 +136,7 @@ def _views(out: Path, base: str, files: list[str]) -> str:
 
 
 def write_entry_page(out: Path, entry: "Entry", results: list["JobResult"], overrides: list[str],
-                     recipe_file: Path | None, quick: bool) -> list[str]:
+                     recipe_file: Path | None, scale: str) -> list[str]:
     """``out/<entry id>/index.html``; returns the placeholders its runs could not fill."""
     missing: list[str] = []
     page_dir = out / entry.slug
@@ -161,7 +167,8 @@ def write_entry_page(out: Path, entry: "Entry", results: list["JobResult"], over
                     f'<div class="pics">{pics}</div>{_frames(out, base, r.files)}{_views(out, base, r.files)}'
                     f'<h3>make it again</h3><pre class="cmd">{html.escape(reproduce_command(entry, r.seed, overrides))}</pre>'
                     f'<h3>numbers</h3>{reports_table(info.get("reports", r.reports), entry.thesis)}'
-                    f'<p class="meta">{r.seconds:.1f} s &middot; files: {files}</p>{params_html(info)}</section>')
+                    f'<p class="meta">{run_time(r.seconds, entry.thesis_time)} &middot; files: {files}</p>'
+                    f'{params_html(info)}</section>')
     thesis = (f'<div><h2>The thesis ({html.escape(entry.figure)})</h2><blockquote>'
               f'{html.escape(entry.thesis_caption)}</blockquote></div>') if entry.thesis_caption else ""
     ours = f'<div><h2>Ours</h2><p class="cap">{caption}</p></div>'
@@ -173,7 +180,7 @@ def write_entry_page(out: Path, entry: "Entry", results: list["JobResult"], over
 <link rel="stylesheet" href="../_site/style.css"></head><body>
 <nav class="toc"><a href="../index.html#{html.escape(family)}">&larr; gallery: {html.escape(family)}</a></nav>
 <h1>{title}</h1>
-<p class="fig">{html.escape(entry.figure)} &middot; recipe <code>{html.escape(entry.recipe)}</code>{recipe_link}{' &middot; quick sizes' if quick else ''}</p>
+<p class="fig">{html.escape(entry.figure)} &middot; recipe <code>{html.escape(entry.recipe)}</code>{recipe_link}{f' &middot; {html.escape(scale)}' if scale else ''}</p>
 <div class="compare">{thesis}{ours}</div>
 {diff}
 {"".join(runs)}

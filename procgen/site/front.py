@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..exchange import write
-from .entry import run_info
+from .entry import run_info, run_time
 from .numbers import format_number, report_unit
 from .pictures import thumbs_html
 from .text import fill
@@ -51,14 +51,14 @@ def card(out: Path, entry: "Entry", r: "JobResult") -> str:
         body = (f'<div class="thumbs">{thumbs_html(out, base, r.files, href=page)}</div>'
                 f'{_thesis_numbers(info.get("reports", r.reports), entry.thesis)}'
                 f'{f"<p class=differs><b>Differs:</b> {differs}</p>" if differs else ""}'
-                f'<p class="meta">{r.seconds:.1f} s &middot; <a href="{html.escape(page)}">page, files and numbers</a></p>')
+                f'<p class="meta">{run_time(r.seconds, entry.thesis_time)} &middot; <a href="{html.escape(page)}">page, files and numbers</a></p>')
     return (f'<div class="card"><h3><a href="{html.escape(page)}">{title}</a></h3>'
             f'<p class="fig">{html.escape(entry.figure)} &middot; <code>{html.escape(entry.recipe)}</code>'
             f' &middot; seed {r.seed}</p><p class="cap">{caption}</p>{body}</div>')
 
 
 def write_front_page(out: Path, entries: list["Entry"], results: dict[tuple[str, int], "JobResult"],
-                     quick: bool) -> None:
+                     scale: str) -> None:
     families: dict[str, list[str]] = {}
     for e in entries:
         cards = families.setdefault(family_of(e), [])
@@ -71,7 +71,7 @@ def write_front_page(out: Path, entries: list["Entry"], results: dict[tuple[str,
     write(out / "index.html", f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width, initial-scale=1">
 <title>procgen gallery</title><link rel="stylesheet" href="_site/style.css"></head><body>
-<h1>procgen gallery{' (quick sizes)' if quick else ''}</h1>
+<h1>procgen gallery{f' ({html.escape(scale)})' if scale else ''}</h1>
 <p>{total} runs of the recipes every installed plugin ships; each card opens its page with the
 pictures, 3-D views, numbers and the command that makes it again.</p>
 <nav class="toc">{toc}</nav>
