@@ -5,11 +5,12 @@ from procgen.data import shipping_hooks
 
 @hookimpl
 def procgen_register_rules():
+    from .bake import CrackBake
     from .imposed import ImposedCracks
     from .peel import Peel
     from .render_rules import RULES as RENDER_RULES
     from .rules import RULES
-    return [*RULES, *RENDER_RULES, ImposedCracks, Peel]
+    return [*RULES, *RENDER_RULES, ImposedCracks, Peel, CrackBake]
 
 
 @hookimpl

@@ -39,6 +39,9 @@ class Material:
     roughness: Coulomb friction coefficient a drop feels on this material.
     corrodible: corrosion CA may eat this layer (a metal).
     sedimentable: the thesis's 'sedimentable' type: water is absorbed and the layer may erode.
+    metallic: glTF 2.0 metalness in [0, 1] (1 bare metal, 0 a dielectric: oxide, paint, glaze).
+    pbr_roughness: glTF 2.0 perceptual roughness in [0, 1] of the exported metallic-roughness
+        material (0 mirror-smooth, 1 fully matte); not the drop friction ``roughness``.
     """
 
     name: str
@@ -56,6 +59,8 @@ class Material:
     roughness: float = 0.05
     corrodible: bool = False
     sedimentable: bool = False
+    metallic: float = 0.0
+    pbr_roughness: float = 0.5
 
     def __post_init__(self) -> None:
         where = f"material {self.name!r}"
@@ -67,7 +72,8 @@ class Material:
             raise InputError(f"{where}: color must be 3 numbers in [0, 1], got {self.color!r}")
         object.__setattr__(self, "color", col)
         for key in ("ambient", "diffuse", "specular", "exponent", "density", "absorption_rate",
-                    "capacity", "erosion_rate", "weakness_threshold", "roughness"):
+                    "capacity", "erosion_rate", "weakness_threshold", "roughness", "metallic",
+                    "pbr_roughness"):
             v = getattr(self, key)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
                 raise InputError(f"{where}: {key} must be a finite number, got {v!r}")
@@ -83,7 +89,7 @@ class Material:
             raise InputError(f"{where}: opacity must be in [0, 1) (1 would be an infinite "
                              f"absorption in f(o) = o/(1-o)), got {op}")
         object.__setattr__(self, "opacity", float(op))
-        for key in ("absorption_rate", "weakness_threshold", "roughness"):
+        for key in ("absorption_rate", "weakness_threshold", "roughness", "metallic", "pbr_roughness"):
             if getattr(self, key) > 1.0:
                 raise InputError(f"{where}: {key} must be in [0, 1], got {getattr(self, key)}")
         for key in ("corrodible", "sedimentable"):
@@ -103,37 +109,80 @@ class Material:
 
 MATERIAL_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Material))
 
+#: Where the ``metallic`` / ``pbr_roughness`` of the presets come from.  Metalness follows the
+#: metallic-roughness convention of the glTF 2.0 specification (Khronos, section 3.9.2 and
+#: Appendix B: conductors 1, everything else 0; oxides, patina and rust are dielectrics) and
+#: Allegorithmic's "The PBR Guide" part 2 (Substance, 2018: raw metal 1, corroded or painted
+#: metal 0).  Roughness values are mid-range picks from the Substance material-value charts and
+#: physicallybased.info (Anders Lindqvist et al., https://physicallybased.info: water 0 with
+#: ior 1.33, metals 0 polished to ~0.5 worn), adjusted for the weathered state these layers
+#: model: polished copper 0.3, worn iron 0.45, gold 0.2, bronze 0.35; glossy ceramic glaze
+#: 0.05, satin paint 0.45; patina 0.8, rust 0.9, dry stone/concrete 0.85-0.9, mud and soil 0.95.
+PBR_SOURCES = ("glTF 2.0 specification, 3.9.2 metallic-roughness material (Khronos Group)",
+               "The PBR Guide, part 2 (Allegorithmic/Substance, 2018)",
+               "https://physicallybased.info (physically based material values)")
+
 PRESETS: dict[str, Material] = {m.name: m for m in (
     Material(name="copper", color=(0.80, 0.45, 0.25), ambient=0.2, diffuse=0.6, specular=0.6,
-             exponent=40.0, density=8.96, opacity=0.995, roughness=0.02, corrodible=True),
+             exponent=40.0, density=8.96, opacity=0.995, roughness=0.02, corrodible=True,
+             metallic=1.0, pbr_roughness=0.3),
     Material(name="iron", color=(0.55, 0.55, 0.57), ambient=0.2, diffuse=0.6, specular=0.5,
-             exponent=30.0, density=7.87, opacity=0.995, roughness=0.04, corrodible=True),
+             exponent=30.0, density=7.87, opacity=0.995, roughness=0.04, corrodible=True,
+             metallic=1.0, pbr_roughness=0.45),
     Material(name="patina", color=(0.30, 0.68, 0.52), ambient=0.3, diffuse=0.75, specular=0.05,
              exponent=5.0, density=3.9, opacity=0.8, absorption_rate=0.3, capacity=0.5,
-             erosion_rate=0.05, weakness_threshold=0.2, roughness=0.3, sedimentable=True),
+             erosion_rate=0.05, weakness_threshold=0.2, roughness=0.3, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.8),
     Material(name="red_patina", color=(0.72, 0.22, 0.15), ambient=0.3, diffuse=0.75,
              specular=0.05, exponent=5.0, density=3.0, opacity=0.85, absorption_rate=0.3,
              capacity=0.5, erosion_rate=0.08, weakness_threshold=0.15, roughness=0.2,
-             sedimentable=True),
+             sedimentable=True,
+             metallic=0.0, pbr_roughness=0.75),
     Material(name="rust", color=(0.55, 0.25, 0.10), ambient=0.3, diffuse=0.75, specular=0.02,
              exponent=4.0, density=5.2, opacity=0.9, absorption_rate=0.2, capacity=0.3,
-             erosion_rate=0.04, weakness_threshold=0.3, roughness=0.35, sedimentable=True),
+             erosion_rate=0.04, weakness_threshold=0.3, roughness=0.35, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.9),
     Material(name="rock", color=(0.52, 0.48, 0.42), ambient=0.3, diffuse=0.7, specular=0.02,
              exponent=4.0, density=2.6, opacity=0.99, absorption_rate=0.0, capacity=0.0,
-             erosion_rate=0.3, weakness_threshold=0.0, roughness=0.05, sedimentable=True),
+             erosion_rate=0.3, weakness_threshold=0.0, roughness=0.05, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.9),
     Material(name="stone", color=(0.62, 0.62, 0.62), ambient=0.3, diffuse=0.7, specular=0.05,
              exponent=8.0, density=2.4, opacity=0.99, absorption_rate=0.25, capacity=0.4,
-             erosion_rate=0.0, weakness_threshold=1.0, roughness=0.1, sedimentable=True),
+             erosion_rate=0.0, weakness_threshold=1.0, roughness=0.1, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.85),
     Material(name="soil", color=(0.45, 0.33, 0.20), ambient=0.3, diffuse=0.75, specular=0.0,
              exponent=2.0, density=1.6, opacity=0.95, absorption_rate=0.2, capacity=0.4,
-             erosion_rate=0.5, weakness_threshold=0.1, roughness=0.1, sedimentable=True),
+             erosion_rate=0.5, weakness_threshold=0.1, roughness=0.1, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.95),
     Material(name="paint", color=(0.85, 0.85, 0.80), ambient=0.3, diffuse=0.7, specular=0.3,
              exponent=20.0, density=1.4, opacity=0.9, absorption_rate=0.05, capacity=0.1,
-             erosion_rate=0.02, weakness_threshold=0.5, roughness=0.05, sedimentable=True),
+             erosion_rate=0.02, weakness_threshold=0.5, roughness=0.05, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.45),
     Material(name="glaze", color=(0.85, 0.90, 0.95), ambient=0.2, diffuse=0.5, specular=0.8,
-             exponent=60.0, density=2.5, opacity=0.15, roughness=0.01),
+             exponent=60.0, density=2.5, opacity=0.15, roughness=0.01,
+             metallic=0.0, pbr_roughness=0.05),
     Material(name="water", color=(0.25, 0.45, 0.85), ambient=0.2, diffuse=0.4, specular=0.9,
-             exponent=60.0, density=1.0, opacity=0.5, roughness=0.0),
+             exponent=60.0, density=1.0, opacity=0.5, roughness=0.0,
+             metallic=0.0, pbr_roughness=0.02),
+    Material(name="gold", color=(1.00, 0.77, 0.34), ambient=0.2, diffuse=0.6, specular=0.7,
+             exponent=50.0, density=19.3, opacity=0.995, roughness=0.02, metallic=1.0, pbr_roughness=0.2),
+    Material(name="bronze", color=(0.70, 0.48, 0.25), ambient=0.2, diffuse=0.6, specular=0.5,
+             exponent=30.0, density=8.8, opacity=0.995, roughness=0.03, corrodible=True,
+             metallic=1.0, pbr_roughness=0.35),
+    Material(name="mud", color=(0.55, 0.42, 0.30), ambient=0.35, diffuse=0.65, specular=0.05,
+             exponent=4.0, density=1.8, opacity=0.99, absorption_rate=0.2, capacity=0.4,
+             erosion_rate=0.3, weakness_threshold=0.1, roughness=0.1, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.95),
+    Material(name="concrete", color=(0.60, 0.59, 0.56), ambient=0.3, diffuse=0.7, specular=0.02,
+             exponent=4.0, density=2.4, opacity=0.99, absorption_rate=0.1, capacity=0.2,
+             erosion_rate=0.01, weakness_threshold=0.6, roughness=0.1, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.9),
+    Material(name="wood", color=(0.60, 0.42, 0.25), ambient=0.3, diffuse=0.7, specular=0.05,
+             exponent=6.0, density=0.7, opacity=0.99, absorption_rate=0.1, capacity=0.3,
+             erosion_rate=0.01, weakness_threshold=0.5, roughness=0.1, sedimentable=True,
+             metallic=0.0, pbr_roughness=0.7),
+    Material(name="ceramic", color=(0.90, 0.88, 0.84), ambient=0.25, diffuse=0.7, specular=0.2,
+             exponent=15.0, density=2.4, opacity=0.99, roughness=0.05, metallic=0.0, pbr_roughness=0.5),
 )}
 
 

@@ -23,6 +23,7 @@ from procgen.lighting import heightfield_normals, light_direction
 from procgen.noise import value_noise_3d
 
 from . import corrosion as cz
+from .bake import bake_field_specs, bake_stack
 from .light import scale_opacity, shade_stack
 from .materials import MaterialTable, preset, split_layer_specs
 from .stack import (THICKNESS, cell_areas, cell_centres, load_table, noisy_layer,
@@ -63,7 +64,7 @@ class StackLayers(RuleBase):
     uses: ClassVar[dict[str, str]] = {CELLS: CELL_DOMAIN}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "out", units="length", doc="thickness per layer, bottom first"),
-    ) + table_field_specs(CELLS)
+    ) + table_field_specs(CELLS) + bake_field_specs(CELLS)
     cells: str = param("cells", doc="cell domain (Grid or surface cells)")
     layers: list[Any] = param([{"preset": "copper", "thickness": 1.0},
                                {"preset": "patina", "thickness": 0.0}],
@@ -140,7 +141,7 @@ class Corrode(RuleBase):
         FieldSpec("corrosion__map", CELLS, "cell", "out", units="1",
                   doc="0 strong, 1 weak, 2 corroded, 3 hole (plate 2.2 maps)"),
         FieldSpec("cell__alive", CELLS, "cell", "out", dtype="bool", doc="false on holes"),
-    )
+    ) + bake_field_specs(CELLS)
     cells: str = param("cells", doc="cell domain carrying a layer stack")
     consume: list[str] = param([], doc="layers eaten, top one first ([] = every corrodible layer)")
     product: str = param("patina", doc="layer that grows on corroded cells")
@@ -219,6 +220,7 @@ class Corrode(RuleBase):
         dom = state.get(self.cells, CELL_DOMAIN)
         self._graph = cell_graph(dom, "moore", self.name)
         table = load_table(dom, self.name)
+        self._table = table
         self._cons, self._prod = self._layer_indices(table)
         t = np.array(cell_values(dom, THICKNESS), dtype=float)       # private copy, then republished
         put_thickness(dom, t, table)
@@ -325,6 +327,7 @@ class Corrode(RuleBase):
         self._t[:, self._prod] = st.product
         np.not_equal(st.status, cz.HOLE, out=self._alive)
         np.copyto(self._map, np.where(st.status > 0, 1.0 + st.status, 1.0 - st.strong))
+        bake_stack(state.get(self.cells, CELL_DOMAIN), self._table)
         state.add_domain(self.coverage, self._log.domain())
         self._published = True
 
@@ -387,7 +390,7 @@ class Tool(RuleBase):
                                            "depth": 0.4}},)
     uses: ClassVar[dict[str, str]] = {CELLS: CELL_DOMAIN}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec(THICKNESS, CELLS, "cell", "inout", units="length", doc="stack cut along the path"),)
+        FieldSpec(THICKNESS, CELLS, "cell", "inout", units="length", doc="stack cut along the path"),) + bake_field_specs(CELLS)
     cells: str = param("cells", doc="cell domain carrying a layer stack")
     path: list[list[float]] = param([[0.0, 0.0], [1.0, 0.0]],
                                     doc="tool path: points in the domain's coordinates (2-D grid, 3-D surface)")
@@ -451,7 +454,7 @@ class Shade(RuleBase):
     uses: ClassVar[dict[str, str]] = {CELLS: CELL_DOMAIN}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "in", units="length"),
-        FieldSpec("{field}", CELLS, "cell", "out", units="rgb", doc="colour in [0, 1]"),)
+        FieldSpec("{field}", CELLS, "cell", "out", units="rgb", doc="colour in [0, 1]"),) + bake_field_specs(CELLS)
     cells: str = param("cells", doc="cell domain carrying a layer stack")
     field: str = param("surface__color", doc="cell field to write (e.g. stage_b__color to keep a stage)")
     lit: bool = param(True, doc="Phong per layer (True) or the unlit albedo for texture baking (False)")
@@ -523,6 +526,7 @@ class Shade(RuleBase):
                           extra_lights=tuple((light_direction(a, e), i) for a, e, i in self.extra_lights),
                           through=self.through)
         dom.add_field(self.field, rgb, at="cell", units="rgb", doc="colour seen through the layers")
+        bake_stack(dom, load_table(dom, self.name))        # a stack another family thinned
         return True
 
 

@@ -65,11 +65,16 @@ def load_table(domain: Any, where: str = "layers") -> MaterialTable:
 
 
 def put_thickness(domain: Any, thickness: np.ndarray, table: MaterialTable) -> np.ndarray:
-    """Set ``layers__thickness`` from a flat (n_cells, L) array."""
+    """Set ``layers__thickness`` from a flat (n_cells, L) array, and re-bake the stack's look
+    (procgen_layers.bake: the fields the exporters read)."""
     from procgen.ca.cells import put_cell_values
 
-    return put_cell_values(domain, THICKNESS, thickness, units="length",
-                           doc="thickness per layer, bottom first: " + ", ".join(table.names))
+    from .bake import bake_stack
+
+    out = put_cell_values(domain, THICKNESS, thickness, units="length",
+                          doc="thickness per layer, bottom first: " + ", ".join(table.names))
+    bake_stack(domain, table)
+    return out
 
 
 def thickness(domain: Any) -> np.ndarray:

@@ -21,11 +21,14 @@ from .domain import SurfaceCells
 
 @dataclass(frozen=True)
 class Atlas:
-    """Placement of every triangle's cell grid in one image."""
+    """Placement of every triangle's cell grid in one image, and the maps painted into it."""
 
-    image: np.ndarray      # (H, W, 4) float RGBA in [0, 1], row 0 = top
+    image: np.ndarray      # (H, W, 4) RGBA in [0, 1] (uint8 or float), row 0 = top
     origin: np.ndarray     # (m, 2) texel (x, y) of each face's cell (0, 0) corner
     texels: int            # texels per cell side
+    orm: np.ndarray | None = None      # (H, W, 3) occlusion, roughness, metallic in [0, 1]
+    height: np.ndarray | None = None   # (H, W) relief height (length)
+    texel_size: float = 1.0            # model length of one texel side
 
     def uv(self, face: np.ndarray, xy: np.ndarray, size: float) -> np.ndarray:
         """Texture coordinates (u right, v up) of 2-D frame points of ``face``."""
@@ -33,14 +36,25 @@ class Atlas:
         px = self.origin[face] + xy / size * self.texels
         return np.column_stack([px[:, 0] / w, 1.0 - px[:, 1] / h])
 
+    def normal_map(self, strength: float = 1.0, directx: bool = False) -> np.ndarray | None:
+        """(H, W, 3) tangent-space unit normals in [-1, 1] of the height map (None without one).
 
-def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
-               texels: int = 2, pad: int = 1) -> Atlas:
-    """Shelf-pack the face grids and paint each cell's colour (alpha 0 on holes).
+        The atlas x axis is the facet frame's ex (u), rows run along ey, and v = 1 - row / H, so
+        a height h gives n = (-dh/du, -dh/dv, 1) normalised, the OpenGL (+Y = +v) convention of
+        glTF; ``directx`` flips the green channel (the -Y convention of DirectX tools).
+        """
+        if self.height is None:
+            return None
+        gy, gx = np.gradient(np.asarray(self.height, np.float64) * strength / self.texel_size)
+        n = np.stack([-gx, gy, np.ones_like(gx)], axis=-1)     # dh/dv = -dh/drow
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        if directx:
+            n[..., 1] *= -1.0
+        return n
 
-    ``rgb``: (n, 3) one colour per cell, or (n, texels, texels, 3) one per texel [cell, x, y]
-    (x along the facet frame's ex, y along ey), e.g. anti-aliased crack micro-cells.
-    """
+
+def atlas_layout(cells: SurfaceCells, texels: int, pad: int = 1) -> tuple[np.ndarray, int, int]:
+    """Shelf-pack the face grids: (origin (m, 2) texel of each face's cell (0, 0), width, height)."""
     nx, ny = cells.nx, cells.ny
     w_f, h_f = nx * texels + 2 * pad, ny * texels + 2 * pad
     use = nx > 0
@@ -55,23 +69,75 @@ def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
         origin[f] = (x + pad, y + pad)
         x += w_f[f]
         shelf = max(shelf, h_f[f])
-    height = y + shelf
-    img = np.zeros((height, width, 4))
-    filled = np.zeros((height, width), bool)
+    return origin, width, y + shelf
+
+
+def paint_atlas(cells: SurfaceCells, origin: np.ndarray, size: tuple[int, int], texels: int,
+                channels: np.ndarray) -> np.ndarray:
+    """(H, W, C) float32 image of per-cell (n, C) or per-texel (n, k, k, C) [cell, x, y] values,
+    bled into the unused texels (nearest painted texel) so that filtering never picks up black."""
+    from scipy.ndimage import distance_transform_edt
+
+    width, height = size
     k = texels
+    ch = np.asarray(channels, np.float32)
+    img = np.zeros((height, width, ch.shape[-1]), np.float32)
+    filled = np.zeros((height, width), bool)
     base = origin[cells.face] + cells.ij * k                   # (n, 2) texel (x, y)
     for dy in range(k):                                        # k*k texel offsets, vectorised
         for dx in range(k):
             yy, xx = base[:, 1] + dy, base[:, 0] + dx
-            img[yy, xx, :3] = rgb if rgb.ndim == 2 else rgb[:, dx, dy]
-            img[yy, xx, 3] = alive.astype(float)
+            img[yy, xx] = ch if ch.ndim == 2 else ch[:, dx, dy]
             filled[yy, xx] = True
-    # bleed colours into unused texels so bilinear filtering never picks up black
-    from scipy.ndimage import distance_transform_edt
     if (~filled).any() and filled.any():
         idx = distance_transform_edt(~filled, return_distances=False, return_indices=True)
-        img[~filled] = img[idx[0][~filled], idx[1][~filled]]      # colour and alpha
-    return Atlas(image=img, origin=origin, texels=k)
+        img[~filled] = img[idx[0][~filled], idx[1][~filled]]
+    return img
+
+
+def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
+               texels: int = 2, pad: int = 1, metallic: np.ndarray | None = None,
+               roughness: np.ndarray | None = None, relief: np.ndarray | None = None) -> Atlas:
+    """Shelf-pack the face grids and paint each cell's colour (alpha 0 on holes) and, when given,
+    its metallic / roughness / relief (per cell (n,) or per texel (n, k, k)) into ORM and height
+    maps; occlusion is the relief's cavities (:func:`cavity_occlusion`).
+
+    ``rgb``: (n, 3) one colour per cell, or (n, texels, texels, 3) one per texel [cell, x, y]
+    (x along the facet frame's ex, y along ey), e.g. anti-aliased crack micro-cells.
+    """
+    origin, width, height = atlas_layout(cells, texels, pad)
+    per_texel = np.asarray(rgb).ndim == 4
+    shape = (cells.n_cells, texels, texels) if per_texel else (cells.n_cells,)
+
+    def chan(v: np.ndarray | None, default: float) -> np.ndarray:
+        a = np.full(shape, default, np.float32) if v is None else np.asarray(v, np.float32)
+        if per_texel and a.ndim == 1:
+            a = np.broadcast_to(a[:, None, None], shape)
+        return a[..., None]
+
+    stack = [np.asarray(rgb, np.float32), chan(alive.astype(np.float32), 1.0)]
+    pbr = metallic is not None or roughness is not None or relief is not None
+    if pbr:
+        stack += [chan(roughness, 0.8), chan(metallic, 0.0), chan(relief, 0.0)]
+    img = paint_atlas(cells, origin, (width, height), texels, np.concatenate(stack, axis=-1))
+    tsize = float(cells.size) / texels
+    if not pbr:
+        return Atlas(image=img, origin=origin, texels=texels, texel_size=tsize)
+    h = img[..., 6]
+    ao = cavity_occlusion(h, tsize) if relief is not None else np.ones_like(h)
+    orm = np.stack([ao, img[..., 4], img[..., 5]], axis=-1)
+    return Atlas(image=img[..., :4], origin=origin, texels=texels, orm=orm,
+                 height=h if relief is not None else None, texel_size=tsize)
+
+
+def cavity_occlusion(height: np.ndarray, texel_size: float, radius: int = 3) -> np.ndarray:
+    """Ambient occlusion of a height map's cavities: 1 on flats and ridges, darker where a texel
+    lies below the mean of its surroundings (a crack groove), by that depth over the radius."""
+    from scipy.ndimage import uniform_filter
+
+    h = np.asarray(height, np.float32)
+    depth = uniform_filter(h, size=2 * radius + 1, mode="nearest") - h
+    return np.clip(1.0 - depth / (radius * texel_size), 0.25, 1.0).astype(np.float32)
 
 
 @dataclass(frozen=True)
@@ -188,8 +254,9 @@ def displaced_mesh(cells: SurfaceCells, height: np.ndarray, rgb: np.ndarray, ali
 
 # -- file writers: the core's OBJ/GLB exporters, fed a TriMesh with UV and texture fields ----
 
-def as_trimesh(mesh: DisplacedMesh, atlas: Atlas | None) -> TriMesh:
-    """The displaced mesh as a core TriMesh: corner UVs, atlas texture and vertex colours as fields.
+def as_trimesh(mesh: DisplacedMesh, atlas: Atlas | None, *, normal_strength: float = 1.0,
+               directx: bool = False) -> TriMesh:
+    """The displaced mesh as a core TriMesh: corner UVs, the atlas maps and vertex colours as fields.
 
     Writing OBJ/GLB is then the core exchange's job (procgen.exchange.obj / glb), one writer for
     every plugin.
@@ -199,25 +266,41 @@ def as_trimesh(mesh: DisplacedMesh, atlas: Atlas | None) -> TriMesh:
     if atlas is not None:
         tm.add_field("surface__uv", mesh.corner_uv, at="face", doc="atlas UV of each face corner")
         tm.add_field("surface__texture", atlas.image, at="domain", doc="RGBA atlas; alpha 0 = hole")
+        if atlas.orm is not None:
+            tm.add_field("surface__orm", atlas.orm, at="domain", doc="occlusion, roughness, metallic")
+        nrm = atlas.normal_map(normal_strength, directx)
+        if nrm is not None:
+            tm.add_field("surface__normal", 0.5 * (nrm + 1.0), at="domain", doc="tangent-space normal map")
+            tm.add_field("surface__height", atlas.height, at="domain", units="length", doc="relief height map")
     return tm
 
 
+def _maps(tm: TriMesh) -> dict[str, str]:
+    return {k: f"surface__{k[:-6]}" for k in ("orm_field", "normal_field", "height_field")
+            if f"surface__{k[:-6]}" in tm}
+
+
 def obj_files(mesh: DisplacedMesh, atlas: Atlas | None, *, name: str, provenance: dict | None = None,
-              vertex_colors: bool = False) -> dict[str, bytes]:
-    """OBJ (+ MTL + PNG atlas) bytes through the core exporter; ``v x y z r g b`` when asked."""
+              vertex_colors: bool = False, normal_strength: float = 1.0,
+              directx: bool = False) -> dict[str, bytes]:
+    """OBJ (+ MTL + PNG maps) bytes through the core exporter; ``v x y z r g b`` when asked."""
     from procgen.exchange import obj_export
 
-    tm = as_trimesh(mesh, atlas)
-    textured = {"uv_field": "surface__uv", "texture_field": "surface__texture"} if atlas is not None else {}
+    tm = as_trimesh(mesh, atlas, normal_strength=normal_strength, directx=directx)
+    textured = {"uv_field": "surface__uv", "texture_field": "surface__texture", **_maps(tm)} \
+        if atlas is not None else {}
     color = {"color_field": "surface__color"} if (vertex_colors or atlas is None) else {}
     return obj_export(tm, stem=name, provenance=provenance, **textured, **color)
 
 
-def glb_bytes(mesh: DisplacedMesh, atlas: Atlas | None, provenance: dict | None = None) -> bytes:
-    """Binary glTF through the core exporter (textured, or vertex colours without an atlas)."""
+def glb_bytes(mesh: DisplacedMesh, atlas: Atlas | None, provenance: dict | None = None, *,
+              normal_strength: float = 1.0) -> bytes:
+    """Binary glTF through the core exporter (textured PBR maps, or vertex colours without an atlas)."""
     from procgen.exchange import glb_export
 
-    tm = as_trimesh(mesh, atlas)
+    tm = as_trimesh(mesh, atlas, normal_strength=normal_strength)
     if atlas is not None:
-        return glb_export(tm, provenance=provenance, uv_field="surface__uv", texture_field="surface__texture")
+        maps = {k: v for k, v in _maps(tm).items() if k != "height_field"}
+        return glb_export(tm, provenance=provenance, uv_field="surface__uv",
+                          texture_field="surface__texture", **maps)
     return glb_export(tm, provenance=provenance, color_field="surface__color")

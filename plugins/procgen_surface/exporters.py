@@ -1,41 +1,33 @@
-"""Exporters of the surface family: textured displaced OBJ/GLB, preview PNG, coverage plot."""
+"""Exporters of the surface family: textured displaced OBJ/GLB, preview PNG, coverage plot.
+
+They serialise fields and name no phenomenon: colours come from a cell field (``color_by``), the
+baked base colour and PBR properties of bake rules (``bake__*``: ``layers.shade`` and every
+layers rule for a stack, ``cracks.bake`` per micro-cell), the lit preview of a stack from its
+baked Phong lobes (``shade__*``), and the packed maps from ``surface.bake`` (``atlas__*``) when
+a recipe packed them once for every format (docs/fields.md, "Baked appearance").
+"""
 from __future__ import annotations
 
-import io
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from procgen import Exporter, FieldName, InputError, Polylines
+from procgen.exchange import png_bytes
 from procgen.lighting import light_direction
-
-from procgen_layers.rules import cell_stack_colors
-from procgen_layers.stack import has_stack
 
 from .domain import SurfaceCells
 from .relief import check_relief_options, relief_shading, relief_values
-from .shading import label_colors
-from .export_mesh import (DisplacedMesh, displaced_mesh, glb_bytes, obj_files, pack_atlas,
+from .shading import label_colors, lobe_colors
+from .export_mesh import (Atlas, DisplacedMesh, displaced_mesh, glb_bytes, obj_files, pack_atlas,
                           subdivision_level)
 from procgen.exchange.preview import camera_basis
 
-
-def cell_colors(sc: SurfaceCells, color_by: str, *, lit: bool, light: np.ndarray,
-                eye: np.ndarray) -> np.ndarray:
-    """Per-cell colours by what the exporters are asked to show (labels, cells, state, layers)."""
-    if color_by == "voronoi":
-        return label_colors(np.asarray(sc["voronoi__label"]))
-    if color_by == "cells":
-        # checkerboard of the per-triangle grids; PART-IN cells darker, triangles tinted
-        checker = (sc.ij.sum(axis=1) + sc.face) % 2
-        base = label_colors(sc.face % 12 + 1, seed=3)
-        rgb = base * np.where(checker, 1.0, 0.75)[:, None]
-        return rgb * np.where(sc.comp_in, 1.0, 0.55)[:, None]
-    if color_by == "status":
-        pal = np.array([[0.80, 0.45, 0.25], [0.30, 0.68, 0.52], [0.05, 0.05, 0.05]])
-        return pal[np.asarray(sc["corrosion__state"])]
-    return cell_stack_colors(sc, lit=lit, light=light, eye=eye)
+#: ``color_by`` names that are not fields: the cells' own grid, the core CA's Voronoi labels,
+#: a stack's baked colour
+NAMED = ("cells", "voronoi", "layers")
+DEFAULT = "surface__color"
 
 
 def _check(domain: Any, fmt: str) -> SurfaceCells:
@@ -54,35 +46,86 @@ def _heights(sc: SurfaceCells, exaggerate: float, relief: np.ndarray | None = No
 
 
 def _colors(sc: SurfaceCells, field: str) -> np.ndarray:
-    """Colours per cell: a field name (n, 3), or 'voronoi' / 'status' / 'cells' / 'layers'."""
-    if field in ("voronoi", "status", "cells"):
-        return cell_colors(sc, field, lit=False, light=np.zeros(3), eye=np.zeros(3))
-    if field == "layers":
-        return cell_colors(sc, "layers", lit=False, light=np.zeros(3), eye=np.zeros(3))
-    if field in sc:
-        rgb = np.asarray(sc[field], float)
-        if rgb.shape != (sc.n_cells, 3):
-            raise InputError(f"surface export: field {field!r} must be (n_cells, 3), got {rgb.shape}")
-        return np.clip(rgb, 0, 1)
-    if field != "surface__color":
-        raise InputError(f"surface export: no field {field!r} (and not one of voronoi, status, "
-                         "cells, layers)")
-    if has_stack(sc):
-        return cell_colors(sc, "layers", lit=False, light=np.zeros(3), eye=np.zeros(3))
-    return np.full((sc.n_cells, 3), 0.7)
+    """Colours per cell: an (n, 3) field, an integer label field (distinct colours), 'cells'
+    (the per-triangle grids), 'voronoi' (the core ca.voronoi's ``voronoi__label``) or 'layers'
+    (``bake__color``, a stack's unlit colour)."""
+    if field == "cells":
+        # checkerboard of the per-triangle grids; PART-IN cells darker, triangles tinted
+        checker = (sc.ij.sum(axis=1) + sc.face) % 2
+        base = label_colors(sc.face % 12 + 1, seed=3)
+        rgb = base * np.where(checker, 1.0, 0.75)[:, None]
+        return rgb * np.where(sc.comp_in, 1.0, 0.55)[:, None]
+    name = {"voronoi": "voronoi__label", "layers": "bake__color"}.get(field, field)
+    if name in sc:
+        arr = np.asarray(sc[name])
+        if arr.shape == (sc.n_cells,) and np.issubdtype(arr.dtype, np.integer):
+            return label_colors(arr)
+        if arr.shape != (sc.n_cells, 3):
+            raise InputError(f"surface export: field {name!r} must be (n_cells, 3) colours or "
+                             f"integer labels, got {arr.shape}")
+        return np.clip(arr.astype(float), 0, 1)
+    if field == DEFAULT:
+        return np.clip(np.asarray(sc["bake__color"], float), 0, 1) if "bake__color" in sc \
+            else np.full((sc.n_cells, 3), 0.7)
+    raise InputError(f"surface export: no field {name!r} (color_by is a field or one of "
+                     f"{', '.join(NAMED)})")
 
 
-def build_export(sc: SurfaceCells, *, color_by: str = "surface__color", texels: int = 2,
+def _field(sc: SurfaceCells, *names: str, baked: dict[str, np.ndarray] | None = None) -> np.ndarray | None:
+    """The first of ``names`` in ``baked`` (arrays a plugin baked for this export) or the cells."""
+    for n in names:
+        if baked and n in baked:
+            return np.asarray(baked[n])
+        if n in sc:
+            return np.asarray(sc[n])
+    return None
+
+
+def stored_atlas(sc: SurfaceCells) -> Atlas | None:
+    """The atlas ``surface.bake`` packed once for every output (None if no rule packed one)."""
+    if "atlas__color" not in sc:
+        return None
+    k = int(np.asarray(sc["atlas__texels"]))
+    return Atlas(image=np.asarray(sc["atlas__color"]), origin=np.asarray(sc["atlas__origin"], np.int64),
+                 texels=k, orm=_field(sc, "atlas__orm"), height=_field(sc, "atlas__height"),
+                 texel_size=float(sc.size) / k)
+
+
+def bake_atlas(sc: SurfaceCells, rgb: np.ndarray, *, texels: int, rim: np.ndarray | None = None,
+               relief: np.ndarray | None = None, per_texel: bool = True,
+               baked: dict[str, np.ndarray] | None = None) -> Atlas:
+    """Pack the cells' colours (or the baked micro-cell texels) and PBR fields into one atlas.
+
+    ``per_texel``: use ``bake__texels`` / ``bake__texel_*`` when the cells carry them; ``rim``
+    (n,) darkens colours beside raised cells; ``relief`` (n,) the height map, else the baked
+    ``bake__texel_relief`` / ``bake__relief``.  ``baked``: such arrays given directly (they win
+    over the cells' fields), e.g. a family's exporter baking on demand for a recipe that did not.
+    """
+    texel_rgb = _field(sc, "bake__texels", baked=baked) if per_texel else None
+    colour = rgb if texel_rgb is None else texel_rgb.astype(np.float32)
+    if rim is not None:
+        colour = colour * (rim[:, None] if colour.ndim == 2 else rim[:, None, None, None])
+    tex = (lambda n: _field(sc, f"bake__texel_{n}", f"bake__{n}", baked=baked)) if texel_rgb is not None \
+        else (lambda n: _field(sc, f"bake__{n}", baked=baked))
+    height = tex("relief") if relief is None else relief
+    if height is not None and not np.any(height):
+        height = None                      # a flat relief: no height or normal map at all
+    return pack_atlas(sc, np.clip(colour, 0, 1), sc.alive(),
+                      texels=texels if texel_rgb is None else texel_rgb.shape[1],
+                      metallic=tex("metallic"), roughness=tex("roughness"), relief=height)
+
+
+def build_export(sc: SurfaceCells, *, color_by: str = DEFAULT, texels: int = 2,
                  cells_per_segment: float = 4.0, exaggerate: float = 0.02,
-                 max_triangles: int = 1_500_000, textured: bool = True,
-                 texel_rgb: np.ndarray | None = None, relief: str = "",
-                 relief_scale: float = 1.0, relief_rim: float = 0.5, fmt: str = "surface export"):
+                 max_triangles: int = 1_500_000, textured: bool = True, relief: str = "",
+                 relief_scale: float = 1.0, relief_rim: float = 0.5, fmt: str = "surface export",
+                 baked: dict[str, np.ndarray] | None = None):
     """(DisplacedMesh, Atlas | None) of a SurfaceCells domain.
 
-    ``texel_rgb`` (n, t, t, 3): per-texel colours painted into the atlas instead of the cells'
-    flat colours (t texels per cell side), e.g. the crack family's micro-cells.  ``relief``: a
-    cell field (length) moving each cell's surface along its normal by ``relief_scale`` times
-    the field, with the rim beside raised cells baked into the colours (procgen_surface.relief).
+    The atlas is the one ``surface.bake`` stored when the colours are the default ones, else
+    packed here (from ``baked`` arrays too, see :func:`bake_atlas`).  ``relief``: a cell field (length) moving each cell's surface along its normal
+    by ``relief_scale`` times the field, with the rim beside raised cells baked into the colours
+    (procgen_surface.relief) and the field as the height/normal map.
     """
     if texels < 1 or texels > 16:
         raise InputError(f"{fmt}: texels must be in 1..16, got {texels}")
@@ -92,17 +135,19 @@ def build_export(sc: SurfaceCells, *, color_by: str = "surface__color", texels: 
     lift = relief_values(sc, relief, fmt)
     rgb = _colors(sc, color_by)
     rim = relief_shading(sc, lift, light=None, slope=0.0, rim=relief_rim)
+    atlas = None
+    if textured:
+        atlas = stored_atlas(sc) if color_by == DEFAULT and baked is None else None
+        if atlas is None:
+            per_texel = color_by == DEFAULT
+            atlas = bake_atlas(sc, rgb, texels=texels, rim=rim, per_texel=per_texel, baked=baked,
+                               relief=None if lift is None or (per_texel and _field(
+                                   sc, "bake__texel_relief", baked=baked) is not None)
+                               else relief_scale * lift)
     if rim is not None:
         rgb = rgb * rim[:, None]
-        if texel_rgb is not None:
-            texel_rgb = texel_rgb * rim[:, None, None, None]
-    alive = sc.alive()
-    if texel_rgb is not None:
-        atlas = pack_atlas(sc, texel_rgb, alive, texels=texel_rgb.shape[1])
-    else:
-        atlas = pack_atlas(sc, rgb, alive, texels=texels) if textured else None
     level = subdivision_level(sc, cells_per_segment, max_triangles)
-    mesh = displaced_mesh(sc, _heights(sc, exaggerate, lift, relief_scale), rgb, alive, atlas,
+    mesh = displaced_mesh(sc, _heights(sc, exaggerate, lift, relief_scale), rgb, sc.alive(), atlas,
                           level=level)
     return mesh, atlas
 
@@ -111,30 +156,37 @@ def surface_obj(domain: Any, *, stem: str, provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, vertex_colors: bool = False,
                 textured: bool = True, max_triangles: int = 1_500_000, relief: FieldName = "",
-                relief_scale: float = 1.0, relief_rim: float = 0.5) -> dict[str, bytes]:
-    """OBJ + MTL + PNG atlas of the cells, displaced by the stacked layer thickness (and a
-    ``relief`` cell field, see procgen_surface.relief)."""
+                relief_scale: float = 1.0, relief_rim: float = 0.5, normal_strength: float = 1.0,
+                normal_convention: str = "opengl") -> dict[str, bytes]:
+    """OBJ + MTL + PNG maps of the cells, displaced by the stacked layer thickness (and a
+    ``relief`` cell field, see procgen_surface.relief): base colour, and with baked PBR fields
+    ORM / roughness / metallic, a normal map (``normal_convention`` opengl or directx, slopes
+    times ``normal_strength``) and a 16-bit height map."""
     sc = _check(domain, "surface_obj")
     mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
                                exaggerate=exaggerate, max_triangles=max_triangles, textured=textured,
                                relief=relief, relief_scale=relief_scale, relief_rim=relief_rim,
                                fmt="surface_obj")
+    if normal_convention not in ("opengl", "directx"):
+        raise InputError(f"surface_obj: normal_convention must be opengl or directx, got {normal_convention!r}")
     name = stem.rsplit("/", 1)[-1]
-    return obj_files(mesh, atlas, name=name, provenance=provenance, vertex_colors=vertex_colors)
+    return obj_files(mesh, atlas, name=name, provenance=provenance, vertex_colors=vertex_colors,
+                     normal_strength=normal_strength, directx=normal_convention == "directx")
 
 
 def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, textured: bool = True,
                 max_triangles: int = 1_500_000, relief: FieldName = "", relief_scale: float = 1.0,
-                relief_rim: float = 0.5) -> bytes:
-    """Binary glTF of the same displaced, textured mesh (vertex colours if not textured)."""
+                relief_rim: float = 0.5, normal_strength: float = 1.0) -> bytes:
+    """Binary glTF of the same displaced mesh: a glTF 2.0 metallic-roughness material with the
+    base colour, ORM and normal maps (vertex colours if not textured)."""
     sc = _check(domain, "surface_glb")
     mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
                                exaggerate=exaggerate, max_triangles=max_triangles, textured=textured,
                                relief=relief, relief_scale=relief_scale, relief_rim=relief_rim,
                                fmt="surface_glb")
-    return glb_bytes(mesh, atlas, provenance)
+    return glb_bytes(mesh, atlas, provenance, normal_strength=normal_strength)
 
 
 def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
@@ -174,7 +226,10 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
             light /= np.linalg.norm(light)
         else:
             light = light_direction(light_azimuth, light_elevation)
-        rgb = cell_colors(sc, "layers", lit=True, light=light, eye=eye)
+        if "shade__ambient" not in sc:
+            raise InputError("surface_png: color_by 'layers' needs a stack's baked shading (shade__* "
+                             "fields: build one with layers.stack)")
+        rgb = lobe_colors(sc, light=light, eye=eye)
         lambert = None
     else:
         rgb = _colors(sc, color_by)
@@ -197,7 +252,7 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     shifts = ((np.arange(k) + 0.5) / k - 0.5) * ss if k > 1 else np.zeros(1)
     img = sum(_render_pass(sc, mesh, replace(proj, px=proj.px + dx, py=proj.py + dy), rgb, alive, lambert, bg)
               for dx in shifts for dy in shifts)             # k^2 renders (k <= 8)
-    return encode_image(img / len(shifts) ** 2, (width, height))
+    return encode_image(img / len(shifts) ** 2, (width, height), provenance)
 
 
 def _render_pass(sc: SurfaceCells, mesh: DisplacedMesh, proj: Any, rgb: np.ndarray, alive: np.ndarray,
@@ -243,17 +298,17 @@ def coverage_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     ax.set_title(title)
     ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", metadata={"Software": None})
+    fig.canvas.draw()
+    rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)
-    return buf.getvalue()
+    return png_bytes(rgb, provenance)
 
 
 EXPORTERS = [
     Exporter(name="surface_obj", kinds=("SurfaceCells",), suffix=".obj", func=surface_obj,
-             doc="OBJ + MTL + PNG atlas of 3DSCA cells, displaced by layer thickness"),
+             doc="OBJ + MTL + PNG maps (base colour, ORM, normal, 16-bit height) of 3DSCA cells"),
     Exporter(name="surface_glb", kinds=("SurfaceCells",), suffix=".glb", func=surface_glb,
-             doc="GLB (trimesh) of 3DSCA cells, displaced and textured"),
+             doc="GLB of 3DSCA cells: glTF metallic-roughness material with colour, ORM, normal maps"),
     Exporter(name="surface_png", kinds=("SurfaceCells",), suffix=".png", func=surface_png,
              doc="fixed-camera preview PNG of 3DSCA cells (Phong through layers)"),
     Exporter(name="coverage_png", kinds=("Polylines",), suffix=".png", func=coverage_png,

@@ -12,9 +12,10 @@ from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domai
 
 @hookimpl
 def procgen_register_rules():
+    from .bake import BakeAtlas
     from .image import SurfaceImageField
     from .rules import BuildCells, CupPrimitive, LatticePrimitive
-    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceImageField]
+    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceImageField, BakeAtlas]
 
 
 @hookimpl

@@ -7,22 +7,28 @@ import numpy as np
 
 from ..domains import Domain, TriMesh
 from ..errors import InputError
-from .obj import corner_uvs, texture_image, vertex_colors
+from .obj import corner_uvs, texture_image, unique_rows, vertex_colors
 
 
 def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
                color_field: str | None = None, uv_field: str | None = None,
-               texture_field: str | None = None, cmap: str = "terrain") -> bytes:
+               texture_field: str | None = None, cmap: str = "terrain",
+               orm_field: str | None = None, normal_field: str | None = None) -> bytes:
     """GLB bytes; a textured mesh splits vertices only where UVs differ (atlas seams).
 
     ``color_field`` names vertex colours, or a scalar vertex field shown through ``cmap``.
+    A textured mesh is a glTF 2.0 metallic-roughness material (trimesh's PBRMaterial): the
+    texture is the baseColorTexture; ``orm_field`` (an (h, w, 3) image in [0, 1]: occlusion,
+    roughness, metallic) becomes the metallicRoughnessTexture and the occlusionTexture (glTF
+    reads G and B, respectively R, of the one image), ``normal_field`` (tangent-space normals
+    encoded in [0, 1], +Y = +v) the normalTexture.
     """
     import trimesh
 
     if not isinstance(domain, TriMesh):
         raise InputError(f"glb: expected a TriMesh, got {domain.kind}")
     mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field,
-                           cmap=cmap)
+                           cmap=cmap, orm_field=orm_field, normal_field=normal_field)
     scene = trimesh.Scene(mesh if uv_field else with_vertex_colour_material(mesh, color_field is not None))
     if provenance:
         scene.metadata["procgen"] = provenance
@@ -47,7 +53,8 @@ def with_vertex_colour_material(mesh: Any, coloured: bool) -> Any:
 
 
 def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field: str | None = None,
-                    texture_field: str | None = None, cmap: str = "terrain") -> Any:
+                    texture_field: str | None = None, cmap: str = "terrain",
+                    orm_field: str | None = None, normal_field: str | None = None) -> Any:
     """A ``trimesh.Trimesh`` carrying the domain's vertex colours or UV-mapped texture."""
     import trimesh
     from PIL import Image
@@ -59,12 +66,19 @@ def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field
         # glTF has one UV per vertex: split a vertex only where its corners' UVs differ
         corner_uv = corner_uvs(domain, uv_field).reshape(-1, 2)
         pairs = np.column_stack([domain.faces.reshape(-1, 1).astype(np.float64), corner_uv])
-        uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        uniq, inverse = unique_rows(pairs)
         verts = v[uniq[:, 0].astype(np.int64)]
         tex = texture_image(domain, texture_field)
         alpha = tex.shape[2] == 4
+        maps: dict[str, Any] = {"metallicFactor": 0.0, "roughnessFactor": 0.8}
+        if orm_field:
+            orm = Image.fromarray(texture_image(domain, orm_field))
+            maps = {"metallicFactor": 1.0, "roughnessFactor": 1.0, "metallicRoughnessTexture": orm,
+                    "occlusionTexture": orm}
+        if normal_field:
+            maps["normalTexture"] = Image.fromarray(texture_image(domain, normal_field))
         material = trimesh.visual.material.PBRMaterial(
-            baseColorTexture=Image.fromarray(tex), metallicFactor=0.0, roughnessFactor=0.8,
+            name="procgen", baseColorTexture=Image.fromarray(tex), **maps,
             alphaMode="MASK" if alpha else "OPAQUE", alphaCutoff=0.5 if alpha else None, doubleSided=True)
         visual = trimesh.visual.TextureVisuals(uv=uniq[:, 1:], material=material)
         mesh = trimesh.Trimesh(vertices=verts, faces=inverse.reshape(-1, 3), visual=visual, process=False)

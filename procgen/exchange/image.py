@@ -13,8 +13,14 @@ from ..errors import InputError
 from .provenance import provenance_json
 
 
-def png_bytes(array: np.ndarray, provenance: dict[str, Any] | None = None) -> bytes:
-    """Encode uint8 (h, w[, 3|4]) or uint16 (h, w) as PNG with provenance in a text chunk."""
+def png_bytes(array: np.ndarray, provenance: dict[str, Any] | None = None,
+              extra: dict[str, Any] | None = None) -> bytes:
+    """Encode uint8 (h, w[, 3|4]) or uint16 (h, w) as PNG with provenance in a text chunk.
+
+    The one PNG encoder of procgen: every PNG exporter goes through it, so every PNG carries
+    its provenance (``procgen`` text chunk; ``extra`` adds one text chunk per key, e.g. the
+    scale of a 16-bit height map).  Large images are compressed less hard (level 3): the
+    bytes stay the same for the same input, and the time stays small beside the run's."""
     arr = np.ascontiguousarray(array)
     if arr.dtype == np.uint16:
         img = Image.fromarray(arr.astype("<u2")) if arr.ndim == 2 else None
@@ -26,8 +32,11 @@ def png_bytes(array: np.ndarray, provenance: dict[str, Any] | None = None) -> by
         raise InputError(f"png: unsupported dtype {arr.dtype}")
     info = PngInfo()
     info.add_text("procgen", provenance_json(provenance))
+    for key, value in sorted((extra or {}).items()):
+        info.add_text(key, provenance_json(value) if not isinstance(value, str) else value)
     buf = io.BytesIO()
-    img.save(buf, format="PNG", pnginfo=info, optimize=False, compress_level=6)
+    level = 6 if arr.size < 4_000_000 else 3
+    img.save(buf, format="PNG", pnginfo=info, optimize=False, compress_level=level)
     return buf.getvalue()
 
 
@@ -38,7 +47,8 @@ def to_rgb8(arr: np.ndarray, cmap: str = "terrain", vmin: float | None = None,
     if a.ndim == 3 and a.shape[2] in (3, 4):
         if a.dtype == np.uint8:
             return a
-        return np.round(np.clip(a, 0.0, 1.0) * 255).astype(np.uint8)
+        f = np.clip(a.astype(np.float32, copy=False), 0.0, 1.0) * np.float32(255.0)
+        return np.rint(f).astype(np.uint8)
     if a.ndim != 2:
         raise InputError(f"image: expected (h, w) scalars or (h, w, 3|4) colours, got {a.shape}")
     from matplotlib import colormaps

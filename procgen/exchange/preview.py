@@ -114,21 +114,22 @@ def composite(rgb: np.ndarray, ids: np.ndarray, background: tuple[int, int, int]
 
 
 def encode_png(rgb: np.ndarray, ids: np.ndarray, size: tuple[int, int],
-               background: tuple[int, int, int]) -> bytes:
+               background: tuple[int, int, int], provenance: dict | None = None) -> bytes:
     """Composite per-pixel colours over the background, downsample, encode."""
-    return encode_image(composite(rgb, ids, background), size)
+    return encode_image(composite(rgb, ids, background), size, provenance)
 
 
-def encode_image(out: np.ndarray, size: tuple[int, int]) -> bytes:
-    """Encode an (H, W, 3) float image in [0, 1] as PNG, downsampled to ``size``."""
+def encode_image(out: np.ndarray, size: tuple[int, int], provenance: dict | None = None) -> bytes:
+    """Encode an (H, W, 3) float image in [0, 1] as PNG (provenance in a text chunk, the one
+    encoder :func:`procgen.exchange.image.png_bytes`), downsampled to ``size``."""
     from PIL import Image
+
+    from .image import png_bytes
 
     img = Image.fromarray(np.clip(np.round(out * 255), 0, 255).astype(np.uint8), "RGB")
     if img.size != tuple(size):
         img = img.resize(tuple(int(s) for s in size), Image.LANCZOS)
-    buf = io.BytesIO()
-    img.save(buf, format="PNG")
-    return buf.getvalue()
+    return png_bytes(np.asarray(img), provenance)
 
 
 def _texture_lookup(mesh: Any) -> tuple[np.ndarray, np.ndarray] | None:
@@ -147,7 +148,7 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
                     lit: bool = True, smooth: bool = True,
                     light: tuple[float, float, float] | None = None,
                     background: tuple[int, int, int] = (255, 255, 255), margin: float = 0.06,
-                    supersample: int = 2) -> bytes:
+                    supersample: int = 2, provenance: dict | None = None) -> bytes:
     """PNG bytes of ``mesh`` (a trimesh.Trimesh) seen from a fixed orthographic camera.
 
     Colours: ``face_colors`` if given, else the texture sampled per pixel at the interpolated
@@ -161,7 +162,7 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
     ss = max(1, int(supersample))
     if len(f) == 0:
         ids = -np.ones((int(size[1]) * ss, int(size[0]) * ss), np.int64)
-        return encode_png(np.zeros((0, 3)), ids, size, background)
+        return encode_png(np.zeros((0, 3)), ids, size, background, provenance)
     eye, right, sup = camera_basis(azimuth, elevation, up)
     proj = project(v, size, azimuth=azimuth, elevation=elevation, up=up, margin=margin,
                    supersample=ss)
@@ -193,7 +194,7 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
         ld = ld / np.linalg.norm(ld)
         rgb = rgb * (0.35 + 0.65 * np.abs(n @ ld))[:, None]
     ids[rows[hole], cols[hole]] = -1
-    return encode_png(np.clip(rgb[~hole], 0, 1), ids, size, background)
+    return encode_png(np.clip(rgb[~hole], 0, 1), ids, size, background, provenance)
 
 
 def preview_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
@@ -218,16 +219,17 @@ def preview_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
         raise InputError(f"preview_png: normals must be a length >= 0, got {normals!r}")
     mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field)
     png = render_mesh_png(mesh, (width, height), azimuth=azimuth, elevation=elevation, up=up, lit=lit,
-                          smooth=not (edges or normals))
+                          smooth=not (edges or normals), provenance=provenance)
     if not (edges or normals):
         return png
     return _overlay_lines(png, np.asarray(domain.vertices, float), np.asarray(domain.faces, np.int64),
                           (width, height), azimuth=azimuth, elevation=elevation, up=up, edges=edges,
-                          normals=normals)
+                          normals=normals, provenance=provenance)
 
 
 def _overlay_lines(png: bytes, v: np.ndarray, f: np.ndarray, size: tuple[int, int], *, azimuth: float,
-                   elevation: float, up: str, edges: bool, normals: float) -> bytes:
+                   elevation: float, up: str, edges: bool, normals: float,
+                   provenance: dict | None = None) -> bytes:
     """Draw the visible edges (dark) and vertex normals (white) over a rendered mesh PNG.
 
     A vertex is visible when the face drawn at its pixel is not nearer the eye there than the
@@ -261,6 +263,6 @@ def _overlay_lines(png: bytes, v: np.ndarray, f: np.ndarray, size: tuple[int, in
         show = visible & (vn @ eye > -0.2)
         for i in np.nonzero(show)[0].tolist():
             draw.line([(tip.px[i], tip.py[i]), (tip.px[n + i], tip.py[n + i])], fill=(255, 255, 255), width=2)
-    buf = io.BytesIO()
-    img.save(buf, format="PNG")
-    return buf.getvalue()
+    from .image import png_bytes
+
+    return png_bytes(np.asarray(img), provenance)
