@@ -7,7 +7,7 @@ dask.distributed cluster often share no filesystem with it. So
   package versions, and skips a job whose folder holds a stamp with that hash (a finished run is
   never redone);
 - a worker (a local process or a dask worker on another machine) gets the resolved recipe itself,
-  not a path, renders the run in its own scratch space and hands back the files' bytes;
+  not a path, renders the run in memory and hands back the files' bytes;
 - the client commits each result as it arrives: the files into a temporary sibling folder, the
   stamp last, then one rename. A killed client or worker, or a full disk, never leaves a
   half-written run folder (a refused write makes that run "failed" and the batch goes on), and
@@ -26,7 +26,6 @@ import itertools
 import json
 import shutil
 import sys
-import tempfile
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
@@ -142,12 +141,12 @@ def _worker_host() -> "PluginHost":
 
 
 def compute_job(job: Job, host: "PluginHost | None" = None) -> JobOutput:
-    """Render a planned job in scratch space and return its files' bytes. Runs on a worker.
+    """Render a planned job in memory and return its files' bytes. Runs on a worker.
 
-    Writes nothing the client relies on; any error becomes a "failed" result.
+    Writes nothing (a worker needs no disk); any error becomes a "failed" result.
     """
     from .recipes import check_recipe
-    from .runner import run
+    from .runner import render
 
     t0 = time.perf_counter()
     try:
@@ -160,9 +159,7 @@ def compute_job(job: Job, host: "PluginHost | None" = None) -> JobOutput:
                                           f"{job.versions.get(k, 'missing')}" for k in diff)
                               + "); install the same procgen and plugins on every worker")
         recipe = check_recipe(job.data, host, job.source, None if job.base_dir is None else Path(job.base_dir))
-        with tempfile.TemporaryDirectory(prefix="procgen-job-") as scratch:
-            result = run(recipe, host, seed=job.seed, out_dir=Path(scratch), progress=False)
-            files = {rel: (Path(scratch) / rel).read_bytes() for rel in result.files}
+        result, files = render(recipe, host, seed=job.seed, progress=False)
         reports = json.loads(json.dumps(result.state.reports, default=str))
         return JobOutput(JobResult(job.key, job.seed, "done", time.perf_counter() - t0,
                                    files=sorted(files), reports=reports), files)

@@ -76,7 +76,22 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
 
     Nothing is written when a step or an exporter fails, nor when the disk refuses one of the
     files (WriteError names it; the folder keeps what it had); without ``out_dir`` nothing is
-    exported at all (frames included). ``progress=None`` shows bars only on a terminal.
+    exported at all (frames included). See :func:`render` for the rest.
+    """
+    result, files = render(recipe, host, seed=seed, progress=progress, on_step=on_step,
+                           save_state=save_state, export=out_dir is not None)
+    if out_dir is not None:
+        write_folder(out_dir, files)     # all or nothing; run.json, last in ``files``, lands last
+    return result
+
+
+def render(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, progress: bool | None = None,
+           on_step: StepCallback | None = None, save_state: bool = False,
+           export: bool = True) -> tuple[RunResult, dict[str, bytes]]:
+    """Run every step of a checked recipe and render every file of the run in memory (frames,
+    outputs, run.json last): ``(result, {path relative to the run folder: bytes})``. Writes
+    nothing, so a batch worker needs no disk; without ``export`` no exporter runs at all.
+    ``progress=None`` shows bars only on a terminal.
 
     A step's iterations run back to back: between two of them only its own rule writes the
     state (frames are exported after its ``publish``), so a rule may keep caches across its
@@ -114,7 +129,7 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
                     if on_step is not None:
                         on_step(state, rec)
                     bar.update(1)
-                    if out_dir is not None and step.frames is not None and (it + 1) % step.frames.every == 0:
+                    if export and step.frames is not None and (it + 1) % step.frames.every == 0:
                         rule.publish(state)
                         spec = OutputSpec(step.frames.domain, step.frames.format,
                                           _frame_name(step, it + 1, host), step.frames.options)
@@ -133,9 +148,8 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
                           "params": rule.param_values(), "iterations": done_iterations,
                           "changed_iterations": changed_count, "stopped": stopped,
                           "seconds": round(time.perf_counter() - t_start, 4)})
-    if out_dir is None:
-        return result
-    out_dir = Path(out_dir)
+    if not export:
+        return result, {}
     for spec in recipe.outputs:
         pending.update(render_output(state, spec, host, prov))
     if save_state:
@@ -144,10 +158,9 @@ def run(recipe: Recipe, host: "PluginHost", *, seed: int | None = None, out_dir:
             "meta": recipe.meta, "resolved_recipe": recipe.data, "provenance": prov,
             "steps": step_info, "reports": state.reports, "files": sorted([*pending, "run.json"])}
     pending["run.json"] = (json.dumps(info, indent=2, sort_keys=True, default=_json_default) + "\n").encode()
-    write_folder(out_dir, pending)     # all or nothing; run.json, last in ``pending``, lands last
     result.files = sorted(pending)
     result.run_info = info
-    return result
+    return result, pending
 
 
 def _json_default(value: Any) -> Any:

@@ -134,7 +134,7 @@ def test_a_sweep_records_the_run_as_failed_goes_on_and_resumes(recipe, tmp_path,
     full_where(monkeypatch, f"{os.sep}.tmp-seed-2-")          # the disk refuses seed 2's folder
     results = sweep(str(recipe), [], [1, 2, 3], out, progress=False)
     assert [r.status for r in results] == ["done", "failed", "done"]
-    assert results[1].error == f"{out / 'base' / 'seed-2' / 'colour.png'}: cannot write (no space left on device)"
+    assert results[1].error == f"{out / 'base' / 'seed-2' / 'height.npy'}: cannot write (no space left on device)"
     assert sorted(p.name for p in (out / "base").iterdir()) == ["seed-1", "seed-3"]     # no partial seed-2
     assert [p for p in everything(out / "base" / "seed-1") if p != "maps"] == sorted(
         [*FILES, ".procgen-done.json"])
@@ -155,7 +155,7 @@ def test_the_gallery_records_the_run_as_failed_and_writes_its_index(recipe, tmp_
     report = build_gallery(get_plugin_manager(), gallery_file=tmp_path / "g.toml", out_dir=tmp_path / "gal",
                            progress=False)
     assert [(r.seed, r.status) for r in report.results] == [(1, "failed"), (2, "done")]
-    assert report.failed[0].error.endswith("disk/seed-1/colour.png: cannot write (no space left on device)")
+    assert report.failed[0].error.endswith("disk/seed-1/height.npy: cannot write (no space left on device)")
     assert not (tmp_path / "gal" / "disk" / "seed-1").exists() and (tmp_path / "gal" / "index.html").is_file()
     assert "seed 1: " in report.summary() and "no space left on device" in report.summary()
 
