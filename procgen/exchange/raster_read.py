@@ -221,7 +221,7 @@ def _npy_header(fh, name: str) -> tuple[tuple[int, ...], np.dtype, int]:
     read = {1: np.lib.format.read_array_header_1_0, 2: np.lib.format.read_array_header_2_0,
             3: np.lib.format.read_array_header_2_0}.get(head[6])
     if read is None:
-        raise InputError(f"{name}: NPY format version {head[6]}.{head[7]} is not one numpy writes")
+        raise InputError(f"{name}: NPY format version {head[6]}.{head[7]} is unknown (1.0, 2.0 or 3.0 expected)")
     try:
         shape, fortran, dtype = read(fh)  # the header only: no data read
     except Exception:  # numpy raises ValueError/SyntaxError/... for a damaged header
@@ -284,7 +284,9 @@ def _open_geotiff(path: Path) -> Iterator:
     rasterio = _rasterio()
     name = printable(str(path))
     check_input(path, "GeoTIFF", name)
-    with rasterio.Env(GDAL_DISABLE_READDIR_ON_OPEN="EMPTY_DIR", GDAL_PAM_ENABLED="NO"):
+    with rasterio.Env(GDAL_DISABLE_READDIR_ON_OPEN="EMPTY_DIR", GDAL_PAM_ENABLED="NO"), \
+            warnings.catch_warnings():
+        warnings.simplefilter("ignore")     # "not georeferenced" and the like: the probe reports what matters
         try:
             src = rasterio.open(path, driver="GTiff")
         except Exception:  # rasterio/GDAL raise several types for a file that is not a GeoTIFF
