@@ -86,6 +86,8 @@ def load_mesh_file(path: Path) -> TriMesh:
         raise InputError(f"mesh.load: {path.name}: no triangles in the file")
     faces = np.asarray(loaded.faces)
     v = np.asarray(loaded.vertices, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise InputError(f"mesh.load: {path.name}: vertices are not 3-D points or faces not triangles")
     if not np.all(np.isfinite(v)):
         raise InputError(f"mesh.load: {path.name}: vertices contain NaN or inf")
     if faces.min() < 0 or faces.max() >= len(v):
