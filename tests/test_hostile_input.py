@@ -23,12 +23,14 @@ import rasterio
 from rasterio.transform import from_origin
 
 from procgen.cli import main
+from procgen.data import meshes_dir
 from procgen.exchange.input_files import MAX_BYTES
 
 NS = 'xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink"'
 #: what a message must never show: an exception class, a library, bytes
 LEAK = re.compile(r"\w*(Error|Exception|Warning)\b|\bPIL\b|Pillow|trimesh|svgelements|numpy|rasterio|GDAL|b'|"
                   r"Traceback|site-packages")
+MESHES = meshes_dir()
 TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n"
 
 
@@ -320,3 +322,25 @@ def test_procgen_check_on_use_amplification_exits_1_at_once(tmp_path):
                           capture_output=True, text=True, timeout=120, cwd=tmp_path)
     err = done.stderr.strip()
     assert done.returncode == 1 and "\n" not in err and "d.svg" in err and not LEAK.search(err), err
+
+
+# -- a mesh's size is known at check time ---------------------------------------------------
+
+def test_a_mesh_promising_two_billion_faces_is_refused_at_check(tmp_path, capsys):
+    (tmp_path / "m.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                    "property float z\nelement face 2000000000\nproperty list uchar int vertex_indices\n"
+                                    "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    _refused(capsys, ["check", str(_recipe(tmp_path, "mesh.load", path="m.ply"))], "mesh.load", "GiB")
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".off", ".glb"])
+def test_the_face_count_read_at_check_is_the_files(suffix, tmp_path):
+    import trimesh
+
+    from procgen.builtin.meshes import load_mesh_file
+    from procgen.exchange.mesh_read import face_count
+
+    src = load_mesh_file(MESHES / "spot.obj")
+    path = tmp_path / f"spot{suffix}"
+    trimesh.Trimesh(src.vertices, src.faces, process=False).export(path)
+    assert face_count(path, path.read_bytes()) == src.n_faces == len(trimesh.load(path, force="mesh").faces)

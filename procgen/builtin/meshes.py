@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
@@ -126,11 +126,23 @@ class LoadMesh(RuleBase):
     clean: bool = param(True, doc="merge duplicate vertices, drop degenerate and duplicate faces")
     normalize: bool = param(False, doc="fit into a unit box centred at the origin")
 
+    #: bytes loading, cleaning and holding one face takes (measured: 1M faces, 430 MB peak)
+    BYTES_PER_FACE: ClassVar[int] = 500
+
     def validate(self) -> None:
         try:
-            check_mesh_file(resolve_mesh_path(self.path, self.recipe_dir))
+            faces = check_mesh_file(resolve_mesh_path(self.path, self.recipe_dir))
         except InputError as exc:
             raise ValueError(str(exc)) from None
+        object.__setattr__(self, "_faces", faces)
+
+    def memory_estimate(self, sizes: object = None) -> int:
+        """From the face count in the file (read at validate)."""
+        return self.BYTES_PER_FACE * int(getattr(self, "_faces", 0))
+
+    def domain_sizes(self, sizes: Mapping[str, int]) -> dict[str, int]:
+        faces = int(getattr(self, "_faces", 0))
+        return {self.mesh: faces} if faces else {}
 
     def step(self, state: State) -> bool:
         mesh = load_mesh_file(resolve_mesh_path(self.path, state.base_dir))

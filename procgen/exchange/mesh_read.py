@@ -30,14 +30,49 @@ _MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", re.MULTILINE)
 _MTL_MAP = re.compile(r"^[ \t]*(?:map_\w+|bump|disp|decal|refl|norm)[ \t]+([^\r\n]+)", re.MULTILINE | re.IGNORECASE)
 
 
-def check_mesh_file(path: Path) -> None:
+def check_mesh_file(path: Path) -> int:
     """Refuse (InputError, one line) a mesh file of an unknown type, not regular, too large, or
-    naming a file that is not regular or too large; nothing is parsed beyond the names."""
+    naming a file that is not regular or too large; nothing is parsed beyond the names and the
+    face count, which is returned (``face_count``)."""
     name = printable(path.name)
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise InputError(f"{name}: not a mesh file type procgen reads ({', '.join(MESH_SUFFIXES)})")
     check_input(path, "mesh", name)
-    mesh_references(path, read_input(path, "mesh", name))
+    data = read_input(path, "mesh", name)
+    mesh_references(path, data)
+    return face_count(path, data)
+
+
+_PLY_FACES = re.compile(rb"^element[ \t]+face[ \t]+(\d+)", re.MULTILINE)
+
+
+def face_count(path: Path, data: bytes) -> int:
+    """About how many faces the mesh file holds, from its header or a count of its face
+    records (an OBJ's ``f`` lines, an n-gon counted once); 0 when it cannot tell."""
+    suffix = path.suffix.lower()
+    if suffix == ".obj":
+        return data.count(b"\nf ") + data.count(b"\nf\t") + (data[:2] in (b"f ", b"f\t"))
+    if suffix == ".ply":
+        m = _PLY_FACES.search(data[: data.find(b"end_header") + 1 or 65536])
+        return int(m.group(1)) if m else 0
+    if suffix == ".stl":
+        if len(data) >= 84 and len(data) == 84 + 50 * struct.unpack_from("<I", data, 80)[0]:
+            return struct.unpack_from("<I", data, 80)[0]
+        return data.count(b"facet normal")
+    if suffix == ".off":
+        lines = (ln.split(b"#")[0].split() for ln in data[:65536].splitlines())
+        counts = [t for t in lines if t and t[0] not in (b"OFF", b"COFF", b"NOFF")]
+        return int(counts[0][1]) if counts and len(counts[0]) >= 2 and counts[0][1].isdigit() else 0
+    doc = _gltf_json(path, data)
+    acc = doc.get("accessors") if isinstance(doc.get("accessors"), list) else []
+    total = 0
+    for mesh in doc.get("meshes", []) if isinstance(doc.get("meshes"), list) else []:
+        for prim in mesh.get("primitives", []) if isinstance(mesh, dict) else []:
+            i = prim.get("indices", (prim.get("attributes") or {}).get("POSITION")) if isinstance(prim, dict) else None
+            if isinstance(i, int) and 0 <= i < len(acc) and isinstance(acc[i], dict):
+                count = acc[i].get("count", 0)
+                total += count // 3 if isinstance(count, int) else 0
+    return total
 
 
 def mesh_references(path: Path, data: bytes) -> list[Path]:
