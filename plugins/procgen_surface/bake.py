@@ -41,6 +41,7 @@ class BakeAtlas(RuleBase):
         FieldSpec("atlas__color", CELLS, "domain", "out", doc="base colour atlas, RGBA uint8"),
         FieldSpec("atlas__orm", CELLS, "domain", "out", doc="occlusion, roughness, metallic atlas"),
         FieldSpec("atlas__height", CELLS, "domain", "out", units="length", doc="height atlas"),
+        FieldSpec("atlas__normal", CELLS, "domain", "out", doc="tangent-space normal atlas"),
         FieldSpec("atlas__origin", CELLS, "face", "out", doc="texel of each face's first cell"),
         FieldSpec("atlas__texels", CELLS, "domain", "out", doc="texels per cell side"),)
     cells: str = param("cells", doc="SurfaceCells to pack")
@@ -53,7 +54,7 @@ class BakeAtlas(RuleBase):
         if sc.n_cells == 0:
             raise InputError(f"{self.name}: the cells {self.cells!r} are empty")
         atlas = bake_atlas(sc, _colors(sc, DEFAULT), texels=self.texels)
-        for name in ("atlas__orm", "atlas__height"):
+        for name in ("atlas__orm", "atlas__height", "atlas__normal"):
             if name in sc:
                 sc.remove_field(name)
         sc.add_field("atlas__color", to_rgb8(atlas.image), at="domain", doc="base colour atlas (RGBA)")
@@ -62,6 +63,8 @@ class BakeAtlas(RuleBase):
         if atlas.height is not None:
             sc.add_field("atlas__height", atlas.height.astype(np.float32), at="domain", units="length",
                          doc="relief height atlas")
+            sc.add_field("atlas__normal", to_rgb8(0.5 * (atlas.normal_map() + 1.0)), at="domain",
+                         doc="tangent-space normal map (OpenGL), uint8")
         sc.add_field("atlas__origin", atlas.origin, at="face", doc="atlas texel of each face's cell (0, 0)")
         sc.add_field("atlas__texels", np.int64(atlas.texels), at="domain", doc="texels per cell side")
         return True

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procgen import geometry as geo
+from procgen.exchange.obj import unique_rows
 from procgen.domains import TriMesh
 
 from .domain import SurfaceCells
@@ -29,6 +30,7 @@ class Atlas:
     orm: np.ndarray | None = None      # (H, W, 3) occlusion, roughness, metallic in [0, 1]
     height: np.ndarray | None = None   # (H, W) relief height (length)
     texel_size: float = 1.0            # model length of one texel side
+    normal: np.ndarray | None = None   # (H, W, 3) uint8 encoded OpenGL normal map, if packed already
 
     def uv(self, face: np.ndarray, xy: np.ndarray, size: float) -> np.ndarray:
         """Texture coordinates (u right, v up) of 2-D frame points of ``face``."""
@@ -45,9 +47,13 @@ class Atlas:
         """
         if self.height is None:
             return None
-        gy, gx = np.gradient(np.asarray(self.height, np.float64) * strength / self.texel_size)
-        n = np.stack([-gx, gy, np.ones_like(gx)], axis=-1)     # dh/dv = -dh/drow
-        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        if self.normal is not None and strength == 1.0:
+            n = self.normal.astype(np.float32) / np.float32(127.5) - np.float32(1.0)
+        else:
+            h = np.asarray(self.height, np.float32) * np.float32(strength / self.texel_size)
+            gy, gx = np.gradient(h)
+            n = np.stack([-gx, gy, np.ones_like(gx)], axis=-1)     # dh/dv = -dh/drow
+            n /= np.sqrt(np.einsum("...i,...i->...", n, n))[..., None]
         if directx:
             n[..., 1] *= -1.0
         return n
@@ -84,11 +90,11 @@ def paint_atlas(cells: SurfaceCells, origin: np.ndarray, size: tuple[int, int], 
     img = np.zeros((height, width, ch.shape[-1]), np.float32)
     filled = np.zeros((height, width), bool)
     base = origin[cells.face] + cells.ij * k                   # (n, 2) texel (x, y)
-    for dy in range(k):                                        # k*k texel offsets, vectorised
-        for dx in range(k):
-            yy, xx = base[:, 1] + dy, base[:, 0] + dx
-            img[yy, xx] = ch if ch.ndim == 2 else ch[:, dx, dy]
-            filled[yy, xx] = True
+    step = np.arange(k)
+    xx = base[:, 0, None, None] + step[None, :, None]          # (n, k, k) [cell, x, y]
+    yy = base[:, 1, None, None] + step[None, None, :]
+    img[yy, xx] = ch[:, None, None, :] if ch.ndim == 2 else ch  # one scatter of every texel
+    filled[yy, xx] = True
     if (~filled).any() and filled.any():
         idx = distance_transform_edt(~filled, return_distances=False, return_indices=True)
         img[~filled] = img[idx[0][~filled], idx[1][~filled]]
@@ -206,8 +212,7 @@ def displaced_mesh(cells: SurfaceCells, height: np.ndarray, rgb: np.ndarray, ali
     key = np.concatenate([np.take_along_axis(vid, order, 1), np.take_along_axis(w, order, 1)], 1)
     interior = np.all(w > 0, axis=1)
     key[interior, 0] = -1 - f_rep[interior]                     # interior points: per face
-    _, inv = np.unique(key, axis=0, return_inverse=True)
-    inv = inv.ravel()
+    _, inv = unique_rows(key)
     nv = int(inv.max()) + 1
     cnt = np.bincount(inv, minlength=nv).astype(float)
     pos = np.zeros((nv, 3))
@@ -246,7 +251,7 @@ def displaced_mesh(cells: SurfaceCells, height: np.ndarray, rgb: np.ndarray, ali
         uv = np.zeros((len(t_flat), 3, 2))
     faces_out = inv[t_flat]
     # drop unused vertices
-    used = np.unique(faces_out)
+    used = np.flatnonzero(np.bincount(faces_out.ravel(), minlength=nv))
     remap = np.full(nv, -1, np.int64)
     remap[used] = np.arange(len(used))
     return DisplacedMesh(pos[used], remap[faces_out], uv, col[used], t_cell, t_face, xy[t_flat])
@@ -268,9 +273,13 @@ def as_trimesh(mesh: DisplacedMesh, atlas: Atlas | None, *, normal_strength: flo
         tm.add_field("surface__texture", atlas.image, at="domain", doc="RGBA atlas; alpha 0 = hole")
         if atlas.orm is not None:
             tm.add_field("surface__orm", atlas.orm, at="domain", doc="occlusion, roughness, metallic")
-        nrm = atlas.normal_map(normal_strength, directx)
+        nrm = None
+        if atlas.normal is not None and normal_strength == 1.0 and not directx:
+            nrm = atlas.normal                                  # packed once by surface.bake
+        elif atlas.height is not None:
+            nrm = 0.5 * (atlas.normal_map(normal_strength, directx) + 1.0)
         if nrm is not None:
-            tm.add_field("surface__normal", 0.5 * (nrm + 1.0), at="domain", doc="tangent-space normal map")
+            tm.add_field("surface__normal", nrm, at="domain", doc="tangent-space normal map")
             tm.add_field("surface__height", atlas.height, at="domain", units="length", doc="relief height map")
     return tm
 

@@ -88,7 +88,7 @@ def stored_atlas(sc: SurfaceCells) -> Atlas | None:
     k = int(np.asarray(sc["atlas__texels"]))
     return Atlas(image=np.asarray(sc["atlas__color"]), origin=np.asarray(sc["atlas__origin"], np.int64),
                  texels=k, orm=_field(sc, "atlas__orm"), height=_field(sc, "atlas__height"),
-                 texel_size=float(sc.size) / k)
+                 texel_size=float(sc.size) / k, normal=_field(sc, "atlas__normal"))
 
 
 def bake_atlas(sc: SurfaceCells, rgb: np.ndarray, *, texels: int, rim: np.ndarray | None = None,
