@@ -158,7 +158,7 @@ SVG_CASES = {
     "nested 10000 deep": (_svg("<g>" * 10000 + '<path d="M0 0 L1 1"/>' + "</g>" * 10000), "nested more than"),
     "use loop": (_svg('<g id="a"><use xlink:href="#b"/></g><g id="b"><use xlink:href="#a"/></g>'), "<use> loop"),
     "use of itself": (_svg('<g id="a"><path d="M0 0L1 1"/><use href="#a"/></g>'), "<use> loop"),
-    "use amplification": (_svg(f"<defs>{_GROUP}</defs>" + '<use href="#grp"/>' * 1000), "once every <use> is copied"),
+    "use amplification": (_svg(f"<defs>{_GROUP}</defs>" + '<use href="#grp"/>' * 1000), "<use> copies counted"),
     "use chain 200 deep": (_svg("<defs>" + "".join(f'<g id="g{i}"><use href="#g{i + 1}"/></g>' for i in range(200))
                                 + '<g id="g200"><path d="M0 0L1 1"/></g></defs><use href="#g0"/>'), "nested more than"),
     "viewBox 0 0 0 0": (_svg('<path d="M0 0 L1 1"/>', 'viewBox="0 0 0 0"'), "viewBox '0 0 0 0' has no area"),
@@ -168,6 +168,11 @@ SVG_CASES = {
     "Bezier at 1e20": (_svg('<path d="M0 0 C 1e20 1e20 -1e20 1e20 50 50"/>'), "flattens to more than"),
     "Bezier at 1e400": (_svg('<path d="M0 0 C 1e400 0 0 1 1 1"/>'), "too large to be numbers"),
     "not XML": ("<svg><g></svg>", "not well-formed XML at line 1"),
+    "entity laughs": ('<?xml version="1.0"?><!DOCTYPE svg [<!ENTITY a "<path d=\'M0 0L1 1\'/>">'
+                      + "".join(f'<!ENTITY l{i} "{(f"&l{i - 1};" if i > 1 else "&a;") * 10}">' for i in range(1, 10))
+                      + f']><svg {NS} viewBox="0 0 9 9">&l9;</svg>', "drawing too large"),
+    "external entity": ('<?xml version="1.0"?><!DOCTYPE svg [<!ENTITY x SYSTEM "/dev/zero">]>'
+                           f'<svg {NS} viewBox="0 0 9 9">&x;</svg>', "not well-formed XML"),
     "segments": (_svg('<path d="M0 0 ' + "L1 1 " * 300_000 + '"/>'), "250,000 path segments"),
 }
 

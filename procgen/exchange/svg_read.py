@@ -169,7 +169,7 @@ def _prescan(data: bytes, name: str) -> None:
 
 def _too_many(name: str, elements: int, segments: int) -> str:
     return (f"{name}: drawing too large: more than {MAX_ELEMENTS:,} elements or {MAX_SEGMENTS:,} path "
-            f"segments once every <use> is copied (at least {elements:,} and {segments:,}); simplify it")
+            f"segments, <use> copies counted (at least {elements:,} and {segments:,}); simplify it")
 
 
 def _expand(own: dict[str, list[int]], uses: dict[str, list[str]], name: str) -> dict[str, list[int]]:
