@@ -130,6 +130,11 @@ def pack_atlas(cells: SurfaceCells, rgb: np.ndarray, alive: np.ndarray, *,
     if not pbr:
         return Atlas(image=img, origin=origin, texels=texels, texel_size=tsize)
     h = img[..., 6]
+    if relief is not None and np.ndim(relief) == 1 and texels > 1:
+        # one height per cell is a staircase of texel blocks: a box of one cell turns it into
+        # the piecewise-linear surface through the cell centres, whose slope the normals show
+        from scipy.ndimage import uniform_filter
+        h = uniform_filter(h, size=texels, mode="nearest")
     ao = cavity_occlusion(h, tsize) if relief is not None else np.ones_like(h)
     orm = np.stack([ao, img[..., 4], img[..., 5]], axis=-1)
     return Atlas(image=img[..., :4], origin=origin, texels=texels, orm=orm,
