@@ -126,3 +126,17 @@ def test_same_seed_same_bytes_and_the_files_load_in_trimesh(host, tmp_path):
     assert obj.visual.material.image is not None
     img = np.asarray(obj.visual.material.image.convert("RGB"))
     assert img.std() > 0                                            # a real atlas, not a flat fill
+
+
+def test_final_bunny_shows_a_weathering_pattern_not_one_colour(host):
+    """Fig. 4.16 at the thesis's 432 steps: the weathering fronts from sparse live seeds still
+    show, so the cells spread over the palette's ranges instead of all sitting in the last one
+    (a dense start ages every cell alike and the figure is uniform)."""
+    from procgen.recipes import load_recipe
+    from procgen_wood.palette import THRESHOLDS, palette_index
+
+    result = run(load_recipe("weathering/fig-4-16", host), host, progress=False)
+    k = palette_index(np.asarray(result.state.get("cells")["ca__age"]), np.asarray(THRESHOLDS))
+    share = np.bincount(k, minlength=len(THRESHOLDS)) / k.size
+    assert (share >= 0.05).sum() >= 4, share
+    assert share.max() < 0.6, share
