@@ -263,3 +263,50 @@ def test_blender_finds_base_color_metallic_roughness_and_normal_as_textures(tmp_
             "Normal": "TEX_IMAGE"}
     assert blender_sockets(cup, tmp_path) == want
     assert blender_sockets(cracked, tmp_path) == want
+
+
+def ramp_terrain() -> "Grid":
+    """A 40 x 30 grid: a two-layer stack (rock under soil) on a tilted plane h = 0.2 x + 0.1 y."""
+    from procgen.domains import Grid
+    from procgen_layers.rules import Shade
+
+    g = Grid((30, 40), spacing=0.5)
+    xx, yy = np.meshgrid(g.x, g.y)
+    g.add_field("surface__height", 0.2 * xx + 0.1 * yy, at="cell", units="length")
+    table = parse_materials(["rock", "soil"])
+    store_table(g, table)
+    put_thickness(g, np.column_stack([np.ones(g.n_cells), (xx.ravel() > 10).astype(float)]), table)
+    state = State(seed=1)
+    state.add_domain("terrain", g)
+    Shade(cells="terrain").step(state)
+    return g
+
+
+@pytest.mark.parametrize("convention", ["opengl", "directx"])
+def test_terrain_normal_map_decodes_to_the_height_gradient(convention):
+    from procgen_layers.terrain_export import terrain_maps
+
+    files = terrain_maps(ramp_terrain(), stem="t", provenance=PROV, normal_convention=convention)
+    assert {"t_normal.png", "t_splat.png"} <= set(files)
+    n = np.asarray(Image.open(io.BytesIO(files["t_normal.png"])).convert("RGB"), float) / 127.5 - 1.0
+    n = np.flipud(n)                                            # north-up image -> rows of y
+    if convention == "directx":
+        n[..., 1] *= -1
+    want = np.array([-0.2, -0.1, 1.0]) / np.linalg.norm([-0.2, -0.1, 1.0])
+    assert np.abs(n - want).max() < 0.01
+    splat = Image.open(io.BytesIO(files["t_splat.png"]))
+    assert splat.text["procgen_channels"] == "rock,soil"
+    s = np.flipud(np.asarray(splat.convert("RGBA"), float) / 255.0)
+    assert s[:, :15, 0].min() > 0.99 and s[:, 25:, 1].min() > 0.9    # rock bare west, soil east
+
+
+def test_terrain_glb_in_blender_has_colour_orm_and_normal_textures(tmp_path):
+    from procgen_layers.terrain_export import terrain_glb
+
+    glb = tmp_path / "terrain.glb"
+    glb.write_bytes(terrain_glb(ramp_terrain(), provenance=PROV, mesh_step=5))
+    mat = load_glb(glb.read_bytes()).visual.material
+    assert mat.normalTexture is not None and mat.metallicRoughnessTexture is not None
+    want = {"Base Color": "TEX_IMAGE", "Metallic": "TEX_IMAGE", "Roughness": "TEX_IMAGE",
+            "Normal": "TEX_IMAGE"}
+    assert blender_sockets(glb, tmp_path) == want
