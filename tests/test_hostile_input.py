@@ -335,7 +335,7 @@ def test_a_mesh_promising_two_billion_faces_is_refused_at_check(tmp_path, capsys
     (tmp_path / "m.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                                     "property float z\nelement face 2000000000\nproperty list uchar int vertex_indices\n"
                                     "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
-    _refused(capsys, ["check", str(_recipe(tmp_path, "mesh.load", path="m.ply"))], "mesh.load", "GiB")
+    _refused(capsys, ["check", str(_recipe(tmp_path, "mesh.load", path="m.ply"))], "m.ply", "2,000,000,000 faces", "GiB")
 
 
 @pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".off", ".glb"])

@@ -131,9 +131,16 @@ class LoadMesh(RuleBase):
 
     def validate(self) -> None:
         try:
-            faces = check_mesh_file(resolve_mesh_path(self.path, self.recipe_dir))
+            path = resolve_mesh_path(self.path, self.recipe_dir)
+            faces = check_mesh_file(path)
         except InputError as exc:
             raise ValueError(str(exc)) from None
+        from ..recipes import memory_limit_bytes
+
+        need, limit = self.BYTES_PER_FACE * faces, memory_limit_bytes()
+        if need > limit:
+            raise ValueError(f"{path.name}: {faces:,} faces need about {need / 2**30:.1f} GiB to load, more than "
+                             f"the {limit / 2**30:.1f} GiB this machine can give; decimate the mesh first")
         object.__setattr__(self, "_faces", faces)
 
     def memory_estimate(self, sizes: object = None) -> int:

@@ -55,8 +55,8 @@ def _stat(path: Path, name: str) -> os.stat_result:
 def _bound(name: str, size: int, kind: str) -> None:
     limit = MAX_BYTES[kind]
     if size > limit:
-        raise InputError(f"{name}: {size / MiB:,.1f} MiB, more than the {limit / MiB:,.0f} MiB "
-                         f"procgen reads from a {kind} file")
+        raise InputError(f"{name}: {size:,} bytes, more than the {limit / MiB:,.0f} MiB "
+                         f"procgen reads from one {kind} file")
 
 
 def refuse_special(path: str | Path, name: str | None = None) -> None:

@@ -70,8 +70,8 @@ def read_svg(source: str | Path | bytes, tolerance: float | None = None) -> SvgD
     if isinstance(source, (bytes, bytearray)):
         name, data = "<svg bytes>", bytes(source)
         if len(data) > MAX_BYTES["SVG"]:
-            raise InputError(f"{name}: {len(data) / 2**20:,.1f} MiB, more than the "
-                             f"{MAX_BYTES['SVG'] / 2**20:,.0f} MiB procgen reads from a SVG file")
+            raise InputError(f"{name}: {len(data):,} bytes, more than the "
+                             f"{MAX_BYTES['SVG'] / 2**20:,.0f} MiB procgen reads from one SVG file")
     else:
         name = printable(str(source))
         data = read_input(source, "SVG", name)
