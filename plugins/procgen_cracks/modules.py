@@ -245,10 +245,6 @@ class Modules:
         self.stats["stopped_by_potential"] += int(((cm["K"] <= 0) & ~collide & ~lost).sum())
         self.stats["lost_at_border"] += int(lost.sum())
         fork &= ~ended
-        if not hasattr(self, "_dbg"):
-            self._dbg = []
-        _e = np.nonzero(ended)[0]
-        self._dbg.append((cm["line"][_e].copy(), np.where(collide[_e], 1, np.where(lost[_e], 3, 2)), cell_new[_e].copy(), cm["crack"][_e].copy(), lay[_e].copy()))
         fin = np.nonzero(ended | fork)[0]
         self._emit(fin, cm["xy"][fin], cm["face"][fin])
         kids = np.nonzero(fork)[0]
