@@ -234,13 +234,26 @@ def _tif(d, name="t.tif"):
     return (d / name).read_bytes()
 
 
-@pytest.mark.parametrize("cut", [0.5, 200, 12])
-def test_a_truncated_geotiff_is_refused_in_one_line(cut, tmp_path, capsys):
+@pytest.mark.parametrize("cut,what", [(0.5, "GeoTIFF is truncated: its pixel data runs to byte"),
+                                      (400, "GeoTIFF is truncated"), (12, "its header is damaged")])
+def test_a_truncated_geotiff_is_refused_at_check_in_one_line(cut, what, tmp_path, capsys):
     data = _tif(tmp_path)
     (tmp_path / "t.tif").write_bytes(data[: int(cut * len(data)) if cut < 1 else cut])
-    r = _recipe(tmp_path, "grid.load", file="t.tif")
-    argv = ["check", str(r)] if cut == 12 else ["run", str(r), "--out", str(tmp_path / "o")]
-    _refused(capsys, argv, "t.tif", "damaged")
+    _refused(capsys, ["check", str(_recipe(tmp_path, "grid.load", file="t.tif"))], "t.tif", what)
+
+
+def test_damaged_geotiff_pixel_data_is_refused_at_run_in_one_line(tmp_path, capsys):
+    """Blocks all there but their bytes overwritten: only the read can tell."""
+    with rasterio.open(tmp_path / "t.tif", "w", driver="GTiff", height=64, width=64, count=1, dtype="float32",
+                       compress="deflate", transform=from_origin(0.0, 640.0, 10.0, 10.0)) as ds:
+        ds.write(np.random.default_rng(0).random((1, 64, 64), dtype=np.float32))
+    with rasterio.open(tmp_path / "t.tif") as src:
+        off = int(src.get_tag_item("BLOCK_OFFSET_0_0", "TIFF", bidx=1))
+    data = bytearray((tmp_path / "t.tif").read_bytes())
+    data[off:off + 64] = b"\xff" * 64
+    (tmp_path / "t.tif").write_bytes(bytes(data))
+    _refused(capsys, ["run", str(_recipe(tmp_path, "grid.load", file="t.tif")), "--out", str(tmp_path / "o")],
+             "t.tif", "pixel data is damaged or truncated")
 
 
 def test_a_geotiff_beside_a_fifo_sidecar_does_not_hang(tmp_path):

@@ -307,11 +307,39 @@ def _probe_geotiff(path: Path) -> RasterInfo:
             geographic = bool(crs and crs.is_geographic)
         except Exception:  # a CRS GDAL cannot turn into WKT
             raise InputError(f"{name}: GeoTIFF's coordinate reference system is damaged") from None
+    _refuse_truncated_tiff(path, name)
     if not all(map(math.isfinite, tuple(t)[:6])) or t.a == 0 or t.e == 0:
         raise InputError(f"{name}: GeoTIFF's cell size is zero or not a number")
     if t.b != 0 or t.d != 0:
         raise InputError(f"{name}: rotated or sheared raster (transform {tuple(t)[:6]}); warp it north-up first")
     return RasterInfo(path, "geotiff", shape, count, None, wkt, geographic, units)
+
+
+#: most TIFF blocks (strips or tiles) whose extent the probe compares with the file's length
+_MAX_BLOCKS_CHECKED = 200_000
+
+
+def _refuse_truncated_tiff(path: Path, name: str) -> None:
+    """InputError if a strip or tile of the TIFF ends past the end of the file (a cut download):
+    from the block offsets and sizes in the header, before any pixel is read."""
+    length = check_input(path, "GeoTIFF", name)
+    with _open_geotiff(path) as src:
+        bh, bw = src.block_shapes[0]
+        rows, cols = -(-src.height // bh), -(-src.width // bw)
+        if rows * cols * src.count > _MAX_BLOCKS_CHECKED:
+            return
+        end = 0
+        for b in range(1, src.count + 1):
+            for i in range(rows):
+                for j in range(cols):
+                    off = src.get_tag_item(f"BLOCK_OFFSET_{j}_{i}", "TIFF", bidx=b)
+                    size = src.get_tag_item(f"BLOCK_SIZE_{j}_{i}", "TIFF", bidx=b)
+                    if off is None or size is None:
+                        return              # not a layout GDAL reports: leave it to the read
+                    end = max(end, int(off) + int(size))
+    if end > length:
+        raise InputError(f"{name}: GeoTIFF is truncated: its pixel data runs to byte {end:,}, "
+                         f"the file has {length:,}")
 
 
 def _read_geotiff(info: RasterInfo, band: int) -> Raster:
