@@ -18,6 +18,7 @@ import trimesh
 from PIL import Image
 
 from procgen import State
+from procgen_layers.bake import bake_stack
 from procgen_layers.materials import PRESETS, parse_materials
 from procgen_layers.rules import cell_stack_colors
 from procgen_layers.stack import put_thickness, store_table
@@ -39,6 +40,7 @@ def copper_patina(sc: SurfaceCells) -> np.ndarray:
     store_table(sc, table)
     patina = sc.center3d[:, 0] > 0
     put_thickness(sc, np.column_stack([np.full(sc.n_cells, 0.3), np.where(patina, 1.5, 0.0)]), table)
+    bake_stack(sc, table)                     # as every layers rule does after changing the stack
     return patina
 
 

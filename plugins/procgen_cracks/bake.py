@@ -130,6 +130,15 @@ class CrackBake(RuleBase):
     """
 
     name: ClassVar[str] = "cracks.bake"
+    example: ClassVar[tuple[dict, ...]] = (
+        {"rule": "mesh.primitive", "params": {"shape": "plane", "subdivisions": 2}},
+        {"rule": "surface.cells", "params": {"target_cells": 400}},
+        {"rule": "layers.stack", "params": {"layers": [
+            {"preset": "copper", "thickness": 1.0, "noise": 0.0},
+            {"preset": "glaze", "thickness": 0.5, "noise": 0.2}]}},
+        {"rule": "cracks.draw", "params": {"lines": [[-0.4, -0.3, 0.01, 0.0, 0.1, 0.03, 0.4, 0.2, 0.01]]}},
+        {"rule": "cracks.render", "params": {"k": 4}},
+        {"rule": "cracks.bake"})
     uses: ClassVar[dict[str, str]] = {CELLS: "SurfaceCells"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "in", units="length"),

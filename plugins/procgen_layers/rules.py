@@ -93,6 +93,7 @@ class StackLayers(RuleBase):
                                      smoothing=int(round(g["smoothness"] ** 2 / 0.375)),
                                      scale=scale, hurst=g["hurst"])
         put_thickness(dom, out, table)
+        bake_stack(dom, table)
         store_table(dom, table)
         return True
 
@@ -224,6 +225,7 @@ class Corrode(RuleBase):
         self._cons, self._prod = self._layer_indices(table)
         t = np.array(cell_values(dom, THICKNESS), dtype=float)       # private copy, then republished
         put_thickness(dom, t, table)
+        bake_stack(dom, table)
         self._t = cell_values(dom, THICKNESS)
         n = len(t)
         above = [i for i in range(max(self._cons) + 1, len(table)) if i not in self._cons and i != self._prod]
@@ -422,6 +424,7 @@ class Tool(RuleBase):
         above = np.cumsum(t[:, ::-1], axis=1)[:, ::-1] - t      # thickness lying over each layer
         t = np.clip(t - np.clip(cut[:, None] - above, 0.0, None), 0.0, None)
         put_thickness(dom, t, table)
+        bake_stack(dom, table)
         state.report(f"{self.cells}.tool.removed_volume",
                      float(np.sum((before - t.sum(axis=1)) * cell_areas(dom).ravel())))
         return bool(np.any(cut > 0))

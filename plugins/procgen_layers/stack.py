@@ -65,16 +65,12 @@ def load_table(domain: Any, where: str = "layers") -> MaterialTable:
 
 
 def put_thickness(domain: Any, thickness: np.ndarray, table: MaterialTable) -> np.ndarray:
-    """Set ``layers__thickness`` from a flat (n_cells, L) array, and re-bake the stack's look
-    (procgen_layers.bake: the fields the exporters read)."""
+    """Set ``layers__thickness`` from a flat (n_cells, L) array (the caller re-bakes the stack's
+    look with procgen_layers.bake.bake_stack when it declares the baked fields)."""
     from procgen.ca.cells import put_cell_values
 
-    from .bake import bake_stack
-
-    out = put_cell_values(domain, THICKNESS, thickness, units="length",
-                          doc="thickness per layer, bottom first: " + ", ".join(table.names))
-    bake_stack(domain, table)
-    return out
+    return put_cell_values(domain, THICKNESS, thickness, units="length",
+                           doc="thickness per layer, bottom first: " + ", ".join(table.names))
 
 
 def thickness(domain: Any) -> np.ndarray:

@@ -53,18 +53,16 @@ class BakeAtlas(RuleBase):
         sc = state.get(self.cells, SurfaceCells)
         if sc.n_cells == 0:
             raise InputError(f"{self.name}: the cells {self.cells!r} are empty")
-        atlas = bake_atlas(sc, _colors(sc, DEFAULT), texels=self.texels)
-        for name in ("atlas__orm", "atlas__height", "atlas__normal"):
-            if name in sc:
-                sc.remove_field(name)
+        atlas = bake_atlas(sc, _colors(sc, DEFAULT), texels=self.texels, pbr=True)
+        height = atlas.height if atlas.height is not None else np.zeros(atlas.image.shape[:2], np.float32)
+        normal = atlas.normal_map() if atlas.height is not None else np.broadcast_to(
+            np.array([0.0, 0.0, 1.0], np.float32), height.shape + (3,))
         sc.add_field("atlas__color", to_rgb8(atlas.image), at="domain", doc="base colour atlas (RGBA)")
-        if atlas.orm is not None:
-            sc.add_field("atlas__orm", to_rgb8(atlas.orm), at="domain", doc="occlusion, roughness, metallic")
-        if atlas.height is not None:
-            sc.add_field("atlas__height", atlas.height.astype(np.float32), at="domain", units="length",
-                         doc="relief height atlas")
-            sc.add_field("atlas__normal", to_rgb8(0.5 * (atlas.normal_map() + 1.0)), at="domain",
-                         doc="tangent-space normal map (OpenGL), uint8")
+        sc.add_field("atlas__orm", to_rgb8(atlas.orm), at="domain", doc="occlusion, roughness, metallic")
+        sc.add_field("atlas__height", height.astype(np.float32), at="domain", units="length",
+                     doc="relief height atlas (all 0: no relief)")
+        sc.add_field("atlas__normal", to_rgb8(0.5 * (normal + 1.0)), at="domain",
+                     doc="tangent-space normal map (OpenGL), uint8")
         sc.add_field("atlas__origin", atlas.origin, at="face", doc="atlas texel of each face's cell (0, 0)")
         sc.add_field("atlas__texels", np.int64(atlas.texels), at="domain", doc="texels per cell side")
         return True

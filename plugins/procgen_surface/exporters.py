@@ -86,20 +86,23 @@ def stored_atlas(sc: SurfaceCells) -> Atlas | None:
     if "atlas__color" not in sc:
         return None
     k = int(np.asarray(sc["atlas__texels"]))
+    height = _field(sc, "atlas__height")
+    flat = height is None or not np.any(height)             # no relief: no height or normal map
     return Atlas(image=np.asarray(sc["atlas__color"]), origin=np.asarray(sc["atlas__origin"], np.int64),
-                 texels=k, orm=_field(sc, "atlas__orm"), height=_field(sc, "atlas__height"),
-                 texel_size=float(sc.size) / k, normal=_field(sc, "atlas__normal"))
+                 texels=k, orm=_field(sc, "atlas__orm"), height=None if flat else height,
+                 texel_size=float(sc.size) / k, normal=None if flat else _field(sc, "atlas__normal"))
 
 
 def bake_atlas(sc: SurfaceCells, rgb: np.ndarray, *, texels: int, rim: np.ndarray | None = None,
                relief: np.ndarray | None = None, per_texel: bool = True,
-               baked: dict[str, np.ndarray] | None = None) -> Atlas:
+               baked: dict[str, np.ndarray] | None = None, pbr: bool = False) -> Atlas:
     """Pack the cells' colours (or the baked micro-cell texels) and PBR fields into one atlas.
 
     ``per_texel``: use ``bake__texels`` / ``bake__texel_*`` when the cells carry them; ``rim``
     (n,) darkens colours beside raised cells; ``relief`` (n,) the height map, else the baked
     ``bake__texel_relief`` / ``bake__relief``.  ``baked``: such arrays given directly (they win
     over the cells' fields), e.g. a family's exporter baking on demand for a recipe that did not.
+    ``pbr``: an ORM map even without baked metallic/roughness (the defaults: dielectric, 0.8).
     """
     texel_rgb = _field(sc, "bake__texels", baked=baked) if per_texel else None
     colour = rgb if texel_rgb is None else texel_rgb.astype(np.float32)
@@ -110,9 +113,12 @@ def bake_atlas(sc: SurfaceCells, rgb: np.ndarray, *, texels: int, rim: np.ndarra
     height = tex("relief") if relief is None else relief
     if height is not None and not np.any(height):
         height = None                      # a flat relief: no height or normal map at all
+    metallic, roughness = tex("metallic"), tex("roughness")
+    if pbr and metallic is None:
+        metallic = np.zeros(sc.n_cells)
     return pack_atlas(sc, np.clip(colour, 0, 1), sc.alive(),
                       texels=texels if texel_rgb is None else texel_rgb.shape[1],
-                      metallic=tex("metallic"), roughness=tex("roughness"), relief=height)
+                      metallic=metallic, roughness=roughness, relief=height)
 
 
 def build_export(sc: SurfaceCells, *, color_by: str = DEFAULT, texels: int = 2,
@@ -200,7 +206,8 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     """Preview PNG from a fixed camera, coloured per pixel by the cell under it.
 
     ``color_by='layers'`` is the thesis rendering: Phong per layer (eye = the camera) then light
-    through the layers, per cell; holes cut out.  ``voronoi``/``status``/``cells``/a field name:
+    through the layers, per cell, from the lobes the stack baked (``shade__*``, procgen_layers.bake;
+    cells without them are drawn as the default colours); holes cut out.  ``voronoi``/``status``/``cells``/a field name:
     flat cell colours with two-sided Lambert shading of the (displaced) facets, or as they are
     with ``relight = false`` (a field already lit, e.g. by ``layers.shade`` with its own lights).
     ``antialias = k``: the thesis's fake anti-aliasing (App. B 3, plate B.1): k x k renders with
@@ -220,19 +227,17 @@ def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
     check_relief_options("surface_png", relief_scale, relief_rim, relief_slope)
     lift = relief_values(sc, relief, "surface_png")
     eye, right, sup = camera_basis(azimuth, elevation, up)
-    if color_by == "layers":
+    lobes = color_by == "layers" and "shade__ambient" in sc
+    if lobes:
         if light_azimuth is None:
             light = 0.5 * right + 0.6 * sup + 0.6 * eye
             light /= np.linalg.norm(light)
         else:
             light = light_direction(light_azimuth, light_elevation)
-        if "shade__ambient" not in sc:
-            raise InputError("surface_png: color_by 'layers' needs a stack's baked shading (shade__* "
-                             "fields: build one with layers.stack)")
         rgb = lobe_colors(sc, light=light, eye=eye)
         lambert = None
-    else:
-        rgb = _colors(sc, color_by)
+    else:           # flat colours (a 'layers' preview of cells no stack was baked on: the default)
+        rgb = _colors(sc, DEFAULT if color_by == "layers" else color_by)
         light = 0.45 * right + 0.6 * sup + 0.66 * eye
         light /= np.linalg.norm(light)
         lambert = light if relight else None
