@@ -158,6 +158,9 @@ SVG_CASES = {
     "nested 10000 deep": (_svg("<g>" * 10000 + '<path d="M0 0 L1 1"/>' + "</g>" * 10000), "nested more than"),
     "use loop": (_svg('<g id="a"><use xlink:href="#b"/></g><g id="b"><use xlink:href="#a"/></g>'), "<use> loop"),
     "use of itself": (_svg('<g id="a"><path d="M0 0L1 1"/><use href="#a"/></g>'), "<use> loop"),
+    "use loop via a repeated id": (_svg('<g id="a"><path d="M0 0L1 1"/><use href="#a"/></g><g id="a"/>'), "<use> loop"),
+    "use of 150,000 copies": (_svg('<defs><g id="a"><path d="M0 0L1 1"/></g></defs><g>' + '<use href="#a"/>' * 150_000
+                                   + "</g>"), "<use> copies counted"),
     "use amplification": (_svg(f"<defs>{_GROUP}</defs>" + '<use href="#grp"/>' * 1000), "<use> copies counted"),
     "use chain 200 deep": (_svg("<defs>" + "".join(f'<g id="g{i}"><use href="#g{i + 1}"/></g>' for i in range(200))
                                 + '<g id="g200"><path d="M0 0L1 1"/></g></defs><use href="#g0"/>'), "nested more than"),

@@ -141,15 +141,16 @@ def _prescan(data: bytes, name: str) -> None:
                     raise InputError(_too_many(name, *total))
                 continue
             ident, n, segs, depth, refs = stack.pop()
-            if ident:
-                own[ident] = [n, segs, depth]
-                uses[ident] = refs
+            if ident:                       # a repeated id: count the larger, follow both
+                was = own.get(ident, [0, 0, 0])
+                own[ident] = [max(n, was[0]), max(segs, was[1]), max(depth, was[2])]
+                uses[ident] = uses.get(ident, []) + refs
             if stack:
                 parent = stack[-1]
                 parent[1] += n
                 parent[2] += segs
                 parent[3] = max(parent[3], depth + 1)
-                parent[4] = parent[4] + refs if len(parent[4]) < MAX_ELEMENTS else parent[4]
+                parent[4].extend(refs)
             el.clear()
     except ParseError as exc:
         line, col = getattr(exc, "position", (0, 0))
