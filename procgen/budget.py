@@ -121,14 +121,18 @@ class Budget:
         item = held + working
         total = self.held + held + max(self.working, working)
         detail = f" ({why})" if why else ""
-        limit = f"more than the {self.limit / GiB:,.1f} GiB this machine can give; {hint}"
+        limit = f"more than the {_size(self.limit)} this machine can give; {hint}"
         if item > self.limit:
-            raise RecipeError(f"{where}: needs about {item / GiB:,.1f} GiB{detail}, {limit}")
+            raise RecipeError(f"{where}: needs about {_size(item)}{detail}, {limit}")
         if total > self.limit:
-            raise RecipeError(f"{where}: brings the run to about {total / GiB:,.1f} GiB (this part "
-                              f"{item / GiB:,.1f} GiB{detail}), {limit}")
+            raise RecipeError(f"{where}: brings the run to about {_size(total)} (this part "
+                              f"{_size(item)}{'; ' + why if why else ''}), {limit}")
         self.held += held
         self.working = max(self.working, working)
+
+
+def _size(nbytes: int) -> str:
+    return f"{nbytes / GiB:,.1f} GiB" if nbytes >= GiB else f"{nbytes / 2**20:,.1f} MiB"
 
 
 def step_name(step: "Step") -> str:

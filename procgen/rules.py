@@ -171,6 +171,9 @@ class RuleBase:
             raise MissingExtra(f"{prefix}{exc}", exc.extra) from None
         except (ValueError, TypeError) as exc:
             raise RecipeError(f"{prefix}{exc}") from None
+        except ArithmeticError:       # a check computing with extreme values (1e-300, 1e9) overflowed
+            raise RecipeError(f"{prefix}its parameters are too extreme to work with (a derived size "
+                              f"overflows); bring the smallest or largest values closer to 1") from None
         return rule
 
 
