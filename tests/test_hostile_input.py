@@ -337,12 +337,24 @@ def test_procgen_run_on_a_mesh_naming_a_fifo_exits_1_without_hanging(make, mesh,
         assert done.returncode == 1 and "\n" not in err and what in err and not LEAK.search(err), (argv, err)
 
 
-def test_procgen_check_on_use_amplification_exits_1_at_once(tmp_path):
-    (tmp_path / "d.svg").write_text(SVG_CASES["use amplification"][0])
-    done = subprocess.run([*CLI, "check", str(_recipe(tmp_path, "lines.load", file="d.svg"))],
-                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
+def _memory_cap():
+    """3 GiB of address space: the worst inputs once cost 363 GiB, or gigabytes and minutes."""
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, 3 * 2**30))
+
+
+@pytest.mark.parametrize("case", ["use amplification", "nested 10000 deep", "Bezier at 1e20", "use loop"])
+@pytest.mark.parametrize("command", ["check", "run"])
+def test_procgen_on_the_worst_svgs_exits_1_under_a_memory_cap(case, command, tmp_path):
+    (tmp_path / "d.svg").write_text(SVG_CASES[case][0])
+    argv = [command, str(_recipe(tmp_path, "lines.load", file="d.svg"))] + (["--out", str(tmp_path / "o")]
+                                                                          if command == "run" else [])
+    done = subprocess.run([*CLI, *argv], capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          preexec_fn=_memory_cap)
     err = done.stderr.strip()
-    assert done.returncode == 1 and "\n" not in err and "d.svg" in err and not LEAK.search(err), err
+    assert done.returncode == 1 and "\n" not in err and "d.svg" in err and SVG_CASES[case][1] in err, err
+    assert not LEAK.search(err), err
 
 
 # -- a mesh's size is known at check time ---------------------------------------------------
