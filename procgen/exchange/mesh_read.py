@@ -19,6 +19,7 @@ import struct
 import warnings
 from pathlib import Path
 from typing import Any
+from urllib.parse import unquote
 
 from ..errors import InputError, printable
 from .input_files import check_input, read_input
@@ -100,7 +101,7 @@ def mesh_references(path: Path, data: bytes) -> list[Path]:
             for item in items if isinstance(items, list) else []:
                 uri = item.get("uri") if isinstance(item, dict) else None
                 if isinstance(uri, str) and not uri.startswith("data:"):
-                    part = _check_part(path, _unquote(uri), required)
+                    part = _check_part(path, unquote(uri), required)
                     if part is not None:
                         found.append(part)
     return found
@@ -155,12 +156,6 @@ def _check_part(path: Path, ref: str, required: bool) -> Path | None:
         return None
     check_input(target, "mesh part", _part_name(path, ref))
     return target
-
-
-def _unquote(uri: str) -> str:
-    from urllib.parse import unquote
-
-    return unquote(uri)
 
 
 def _gltf_json(path: Path, data: bytes) -> dict:
