@@ -422,7 +422,10 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
             rule.check_chain(earlier)
         except (ValueError, ProcgenError) as exc:
             raise RecipeError(f"{where}: {exc}") from None
-        specs = rule.field_specs()
+        try:
+            specs = rule.field_specs()
+        except ValueError as exc:          # a field name a parameter gives (FieldSpec checks it)
+            raise RecipeError(f"{where}: {exc}") from None
         for spec in specs:
             clash = flow.units.conflict(spec, where)
             if clash:
@@ -498,13 +501,25 @@ def check_recipe(data: Any, host: "PluginHost", source: str = "<recipe>",
 
 
 def memory_limit_bytes() -> int:
-    """80% of physical memory: a recipe estimated above this is refused before it starts."""
+    """80% of physical memory, or less under an address-space limit (``ulimit -v``, a batch
+    system's): the room left below it. A recipe estimated above this is refused before it starts."""
     import os
+    import resource
 
     try:
-        return int(0.8 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+        page = os.sysconf("SC_PAGE_SIZE")
+        limit = int(0.8 * page * os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):
-        return 8 * 2**30
+        page, limit = 4096, 8 * 2**30
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if soft != resource.RLIM_INFINITY:
+        try:
+            with open("/proc/self/statm") as fh:
+                used = int(fh.read().split()[0]) * page
+        except (OSError, ValueError, IndexError):
+            used = 0
+        limit = min(limit, max(0, int(0.8 * (soft - used))))
+    return limit
 
 
 def load_recipe(ref: str | Path, host: "PluginHost", overrides: list[str] | None = None) -> Recipe:
@@ -518,4 +533,4 @@ def load_recipe(ref: str | Path, host: "PluginHost", overrides: list[str] | None
     except ProcgenError:
         raise
     except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
-        raise RecipeError(f"{path}: malformed recipe ({type(exc).__name__}: {exc})") from None
+        raise RecipeError(f"{path}: malformed recipe ({exc})") from None

@@ -221,13 +221,33 @@ def test_frames_kept_in_memory_are_counted(tmp_path):
     many = _write(tmp_path / "many.toml", FRAMES.format(n=64, it=20_000, opt=""))
     _refused(_cli("check", str(many), cwd=tmp_path), "many.toml: steps[1] 'life' (ca.life): frames: 20,000 frames",
              "more than the 10,000")
-    big = _write(tmp_path / "big.toml", FRAMES.format(n=4096, it=2000, opt=", scale = 2"))
+    big = _write(tmp_path / "big.toml", FRAMES.format(n=1024, it=2000, opt=", scale = 4"))
     _refused(_cli("run", str(big), "--out", str(tmp_path / "o"), cwd=tmp_path),
-             "big.toml: steps[1] 'life' (ca.life): frames: ", "2,000 frames of scale = 2", "raise 'every'")
+             "big.toml: steps[1] 'life' (ca.life): frames: ", "2,000 frames of scale = 4", "raise 'every'")
     ok = _write(tmp_path / "ok.toml", FRAMES.format(n=64, it=3, opt=""))
     r = _cli("run", str(ok), "--out", str(tmp_path / "ok"), cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert len(list((tmp_path / "ok" / "frames").rglob("*.png"))) == 3
+
+
+def test_an_image_too_large_for_the_address_space_is_refused_at_check(tmp_path):
+    from PIL import Image
+
+    Image.new("L", (9_500, 9_500), 128).save(tmp_path / "huge.png")      # 90 Mpx, under the decode limit
+    f = _write(tmp_path / "img.toml", "[[steps]]\nid = 'ground'\nrule = 'grid.noise'\nparams = { nx = 64, ny = 64 }\n"
+               "[[steps]]\nid = 'paint'\nrule = 'grid.image_field'\nparams = { file = 'huge.png', field = 'paint__w' }\n")
+    # under a 3 GiB address space the 2.7 GiB estimate does not fit beside the interpreter
+    _refused(_cli("run", str(f), "--out", str(tmp_path / "o"), cwd=tmp_path),
+             "img.toml: steps[1] 'paint' (grid.image_field): needs about 2.7 GiB", "GiB this machine can give")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_bad_field_name_in_a_parameter_is_one_line_naming_the_step():
+    steps = [{"rule": "grid.noise", "params": {"nx": 8, "ny": 8}},
+             {"rule": "grid.image_field", "params": {"file": "data/weak-map.png", "field": "w"}}]
+    with pytest.raises(ProcgenError, match=r"^f.toml: steps\[1\] \(grid.image_field\): field name 'w' must") as info:
+        check_recipe({"steps": steps}, get_plugin_manager(), "f.toml", ROOT / "rules")
+    assert "Error" not in str(info.value)
 
 
 def test_sizes_flow_from_a_generator_to_later_outputs(monkeypatch):
