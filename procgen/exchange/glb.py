@@ -82,6 +82,9 @@ def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field
             alphaMode="MASK" if alpha else "OPAQUE", alphaCutoff=0.5 if alpha else None, doubleSided=True)
         visual = trimesh.visual.TextureVisuals(uv=uniq[:, 1:], material=material)
         mesh = trimesh.Trimesh(vertices=verts, faces=inverse.reshape(-1, 3), visual=visual, process=False)
+        if domain.dim == 3:          # normals of the welded mesh: atlas seams split vertices, not the surface
+            from ..geometry import vertex_normals as welded_normals
+            mesh.vertex_normals = welded_normals(v, domain.faces)[uniq[:, 0].astype(np.int64)]
     else:
         mesh = trimesh.Trimesh(vertices=np.array(v), faces=np.array(domain.faces), process=False)
         if color_field:
