@@ -542,7 +542,8 @@ def cell_normals(dom: Any) -> np.ndarray:
 
 
 def cell_stack_colors(dom: Any, *, lit: bool, light: np.ndarray, eye: np.ndarray) -> np.ndarray:
-    """(n, 3) colour per cell through its stack, white highlights; for the mesh exporters."""
+    """(n, 3) colour per cell through its stack, white highlights, computed directly (the
+    exporters use the baked lobes of procgen_layers.bake, which reproduce this exactly)."""
     table = load_table(dom, "shade")
     t = np.asarray(cell_values(dom, THICKNESS), dtype=float)
     return shade_stack(cell_normals(dom) if lit else None, t, table, light=light, eye=eye, lit=lit,
