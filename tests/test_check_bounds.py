@@ -242,6 +242,19 @@ def test_an_image_too_large_for_the_address_space_is_refused_at_check(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_mesh_inputs_are_checked_before_compute(tmp_path):
+    # a missing mesh after a (slow) water step: reported by check, naming the step and the file
+    steps = [{"rule": "water.surface", "params": {"nx": 64, "ny": 64}},
+             {"id": "model", "rule": "mesh.load", "params": {"path": "no-such.obj"}}]
+    with pytest.raises(ProcgenError, match=r"m.toml: steps\[1\] \(mesh.load\): .*'no-such.obj' not found"):
+        check_recipe({"steps": steps}, get_plugin_manager(), "m.toml", tmp_path)
+    # a 10M-face mesh: its face count read at check, the load refused under a 3 GiB address space
+    (tmp_path / "big.obj").write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\n" + b"f 1 2 3\n" * 10_000_000)
+    f = _write(tmp_path / "big.toml", "[[steps]]\nrule = 'mesh.load'\nparams = { path = 'big.obj' }\n")
+    _refused(_cli("run", str(f), "--out", str(tmp_path / "o"), cwd=tmp_path),
+             "big.toml: steps[0] (mesh.load):", "10,000,000 faces", "GiB")
+
+
 def test_a_bad_field_name_in_a_parameter_is_one_line_naming_the_step():
     steps = [{"rule": "grid.noise", "params": {"nx": 8, "ny": 8}},
              {"rule": "grid.image_field", "params": {"file": "data/weak-map.png", "field": "w"}}]
