@@ -71,7 +71,8 @@ def test_broken_mesh_files_give_clear_errors(tmp_path, content, match):
 
 
 def test_missing_mesh_file_is_clear(host):
-    with pytest.raises(InputError, match="not found"):
+    """Refused at check, before any step runs (a RecipeError naming the step and the file)."""
+    with pytest.raises(RecipeError, match=r"steps\[0\] \(mesh.load\).*no_such_mesh.obj' not found"):
         _run(host, [{"rule": "mesh.load", "params": {"path": "no_such_mesh.obj"}}])
 
 

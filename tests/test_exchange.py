@@ -12,6 +12,7 @@ import trimesh
 from PIL import Image
 
 from procgen import Grid, InputError, Polylines, TriMesh
+from procgen.exchange.write import WriteError
 from procgen.exchange import (glb_export, heightmap_npy, heightmap_png16, image_png, mesh_svg, obj_export,
                               polylines_svg, write)
 
@@ -158,7 +159,7 @@ def test_write_is_atomic_and_leaves_no_temp(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", boom)
-    with pytest.raises(OSError):
+    with pytest.raises(WriteError, match="f.txt: cannot write"):   # one line, the old file kept
         write(target, "new")
     assert target.read_text() == "old"
     assert [p.name for p in target.parent.iterdir()] == ["f.txt"]

@@ -22,7 +22,7 @@ RECIPE = Path(__file__).resolve().parents[1] / "rules" / "meshes" / "plate-5-20.
 def _misspelt(tmp_path: Path) -> Path:
     """Plate 5.20 with its GLB's relief field misspelt (the mesh path made absolute)."""
     text = RECIPE.read_text()
-    assert text.count('relief = "peel__lift"') == 3
+    assert text.count('relief = "peel__lift"') == 2
     head, sep, tail = text.rpartition('relief = "peel__lift"')
     text = head + 'relief = "peel__lfit"' + tail
     text = text.replace('path = "cow-2k.obj"', f'path = "{(RECIPE.parent / "cow-2k.obj").as_posix()}"')
