@@ -25,7 +25,8 @@ def _misspelt(tmp_path: Path) -> Path:
     assert text.count('relief = "peel__lift"') == 2
     head, sep, tail = text.rpartition('relief = "peel__lift"')
     text = head + 'relief = "peel__lfit"' + tail
-    text = text.replace('path = "cow-2k.obj"', f'path = "{(RECIPE.parent / "cow-2k.obj").as_posix()}"')
+    mesh = RECIPE.parents[2] / "procgen" / "data" / "meshes" / "cow-2k.obj"
+    text = text.replace('path = "cow-2k.obj"', f'path = "{mesh.as_posix()}"')
     bad = tmp_path / "bad.toml"
     bad.write_text(text)
     return bad
