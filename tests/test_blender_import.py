@@ -5,14 +5,12 @@ one, Blender's default material hides the colours and the mesh imports plain gre
 """
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from _blender import run_blender_probe
 from procgen.cli import main
 
 BLENDER_SCRIPT = """
@@ -30,17 +28,8 @@ for ob in bpy.data.objects:
 
 
 def _blender_base_colours(glb, tmp_path) -> list[str]:
-    exe = shutil.which("blender")
-    assert exe, "Blender is needed (Debian package 'blender'; .ci/run installs it)"
-    script = tmp_path / "probe.py"
-    script.write_text(BLENDER_SCRIPT)
-    # Debian's Blender embeds the system Python and finds its home from the first python on PATH:
-    # under a virtualenv or pyenv that is the test's interpreter, without Blender's numpy
-    env = {**os.environ, "PATH": f"{Path(exe).resolve().parent}:{os.environ.get('PATH', '')}"}
-    r = subprocess.run([exe, "-b", "--factory-startup", "--python", str(script), "--", str(glb)],
-                       capture_output=True, text=True, timeout=300, env=env)
-    assert r.returncode == 0, r.stderr[-800:]
-    return [line.split(maxsplit=1)[1] for line in r.stdout.splitlines() if line.startswith("BASECOLOR")]
+    lines = run_blender_probe(BLENDER_SCRIPT, glb, tmp_path)
+    return [line.split(maxsplit=1)[1] for line in lines if line.startswith("BASECOLOR")]
 
 
 def test_vertex_coloured_terrain_glb_shows_its_colours_in_blender(tmp_path):

@@ -7,9 +7,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +14,7 @@ import pytest
 import trimesh
 from PIL import Image
 
+from _blender import run_blender_probe
 from procgen import State
 from procgen_layers.bake import bake_stack
 from procgen_layers.materials import PRESETS, parse_materials
@@ -199,15 +197,8 @@ for ob in bpy.data.objects:
 
 
 def blender_sockets(glb: Path, tmp_path: Path) -> dict[str, str]:
-    exe = shutil.which("blender")
-    assert exe, "Blender is needed (Debian package 'blender'; .ci/run installs it)"
-    script = tmp_path / "probe_pbr.py"
-    script.write_text(BLENDER_SCRIPT)
-    env = {**os.environ, "PATH": f"{Path(exe).resolve().parent}:{os.environ.get('PATH', '')}"}
-    r = subprocess.run([exe, "-b", "--factory-startup", "--python", str(script), "--", str(glb)],
-                       capture_output=True, text=True, timeout=300, env=env)
-    assert r.returncode == 0, r.stderr[-800:]
-    rows = [line.split()[1:] for line in r.stdout.splitlines() if line.startswith("PBR ")]
+    lines = run_blender_probe(BLENDER_SCRIPT, glb, tmp_path, "probe_pbr.py")
+    rows = [line.split()[1:] for line in lines if line.startswith("PBR ")]
     return {" ".join(row[:-1]): row[-1] for row in rows}
 
 
