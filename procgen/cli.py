@@ -186,10 +186,10 @@ def _dispatch(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             print(f"{name:<{width}}  {cls.summary()}")
         return 0
     if args.command == "recipes":
-        from .recipes import list_recipes, load_recipe, rules_missing
+        from .recipes import find_recipe, list_recipes, load_recipe, rules_missing
 
         if args.recipes_cmd == "show":
-            print(describe_recipe(load_recipe(args.name, host)))
+            print(describe_recipe(load_recipe(args.name, host), find_recipe(args.name, host)))
             return 0
         recipes = list_recipes(host)
         width = max((len(n) for n in recipes), default=10)
@@ -271,10 +271,11 @@ def recipe_summary(path: Path) -> str:
     return f"{text} [{figure}]" if figure and figure not in text else text
 
 
-def describe_recipe(recipe: "Recipe") -> str:
-    """The text of ``procgen recipes show``: figure, description, seed, steps with parameters, outputs."""
+def describe_recipe(recipe: "Recipe", path: Path) -> str:
+    """The text of ``procgen recipes show``: figure, description, seed, steps with parameters, outputs,
+    and the file to copy to start one's own."""
     meta = recipe.meta
-    lines = [f"{recipe.name}  ({recipe.source})"]
+    lines = [f"{recipe.name}  ({recipe.source})", f"file: {path}"]
     for key in ("figure", "description", "caption"):
         if meta.get(key):
             lines.append(textwrap.fill(f"{key}: {meta[key]}", _width(), subsequent_indent="  "))

@@ -525,12 +525,15 @@ def memory_limit_bytes() -> int:
 def load_recipe(ref: str | Path, host: "PluginHost", overrides: list[str] | None = None) -> Recipe:
     """Find, read, override and check a recipe. Every failure is a one-line RecipeError."""
     path = find_recipe(ref, host)
+    # A recipe named by a plugin's name (``demo/basics``) is called by that name in every message,
+    # not by where its plugin happens to be installed; a file is called by the path the user gave.
+    source = str(path) if path == Path(ref) else str(ref).removesuffix(".toml")
     data = read_toml(path)
     if overrides:
-        data = apply_overrides(data, overrides, str(path))
+        data = apply_overrides(data, overrides, source)
     try:
-        return check_recipe(data, host, str(path), path.parent)
+        return check_recipe(data, host, source, path.parent)
     except ProcgenError:
         raise
     except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
-        raise RecipeError(f"{path}: malformed recipe ({exc})") from None
+        raise RecipeError(f"{source}: malformed recipe ({exc})") from None

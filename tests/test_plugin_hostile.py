@@ -6,6 +6,7 @@ module) in a temporary folder put on ``sys.path`` (or ``PYTHONPATH`` for the CLI
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -206,7 +207,10 @@ def procgen_recipe_dirs():
     assert f"reason: plugin 'builtin' (dist hostile-name 1.0) has the entry-point name of {BUILTIN}; ignored" \
         in reasons
     assert "Error" not in r.stdout and "pluggy" not in r.stdout
-    r = cli("check", "demo/basics")
-    assert r.returncode == 0 and "hostile_recipes" not in r.stdout and "rules/demo/basics.toml" in r.stdout
+    r = cli("check", "demo/basics")     # the hostile copy names rule 'x.y' and would not check
+    assert r.returncode == 0 and r.stdout.startswith("demo/basics: ok (6 steps"), r.stdout + r.stderr
+    r = cli("recipes", "show", "demo/basics")
+    assert r.returncode == 0 and "hostile_recipes" not in r.stdout
+    assert re.search(r"^file: .*(rules|procgen/builtin/recipes)/demo/basics\.toml$", r.stdout, re.M), r.stdout
     r = cli("exporters")
     assert r.returncode == 0 and "fake" not in r.stdout
