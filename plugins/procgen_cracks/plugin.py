@@ -10,13 +10,15 @@ def procgen_register_rules():
     from .peel import Peel
     from .render_rules import RULES as RENDER_RULES
     from .rules import RULES
-    return [*RULES, *RENDER_RULES, ImposedCracks, Peel, CrackBake]
+    from .series import RULES as SERIES_RULES
+    return [*RULES, *RENDER_RULES, *SERIES_RULES, ImposedCracks, Peel, CrackBake]
 
 
 @hookimpl
 def procgen_register_exporters():
     from .exporters import EXPORTERS as RENDER_EXPORTERS
-    return [*RENDER_EXPORTERS]
+    from .series import EXPORTERS as SERIES_EXPORTERS
+    return [*RENDER_EXPORTERS, *SERIES_EXPORTERS]
 
 
 procgen_recipe_dirs, procgen_gallery_lists = shipping_hooks(__file__, (), ("cracks.toml",))

@@ -20,6 +20,7 @@ from procgen.fields import check_field_name
 
 from . import birth as bt
 from .modules import Modules, meeting_angles
+from .series import StepLog
 from .stress import coplanar_slots, imposed_spectrum, relax, thickness_spectrum
 
 CELLS = "{cells}"
@@ -150,7 +151,7 @@ class CrackPropagate(RuleBase):
     name: ClassVar[str] = "cracks.propagate"
     example: ClassVar[tuple[dict, ...]] = _CRACKS
     uses: ClassVar[dict[str, str]] = {CELLS: "SurfaceCells"}
-    creates: ClassVar[dict[str, str]] = {"{lines}": "Polylines"}
+    creates: ClassVar[dict[str, str]] = {"{lines}": "Polylines", "{lines}_series": "Polylines"}
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec(THICKNESS, CELLS, "cell", "in", units="length"),
         FieldSpec(SPECTRUM, CELLS, "cell", "inout", units="1",
@@ -249,6 +250,7 @@ class CrackPropagate(RuleBase):
         self._seeded = False
         n_act = max(int(self._active.sum()), 1)
         self._start_unstable = float(((imax > self.resistance_value) & self._active).sum() / n_act)
+        self._log = StepLog(spec, self._active)        # per CM step (Figure 5.19)
         self._write(state, dom)
 
     # -- births -------------------------------------------------------------------------------
@@ -329,6 +331,8 @@ class CrackPropagate(RuleBase):
             return False
         while mods.n_live:                                 # every CM to its end (5.3.4)
             mods.step()
+            self._log.record(mods.n_live, mods.spec)
+        self._log.end_series(self.unstable_fraction())
         self._write(state, dom)
         if not self.seeds and self.unstable_fraction() <= self.stop_fraction:
             return False
@@ -365,6 +369,9 @@ class CrackPropagate(RuleBase):
         angles = meeting_angles(pts, off, float(mods.size))
         state.report(f"{key}.meetings", int(len(angles)))
         state.report(f"{key}.meeting_angle_deg", float(np.median(angles)) if len(angles) else 0.0)
+        self._log.publish(state, self.lines, start_unstable=self._start_unstable,    # this run's own
+                          unstable=self.unstable_fraction(), active_cells=int(self._active.sum()),
+                          cracks=int(mods.n_cracks))
 
 
 @dataclass(kw_only=True)
