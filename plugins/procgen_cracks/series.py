@@ -191,7 +191,7 @@ def crack_series_png(domain: Any, *, stem: str = "", provenance: dict | None = N
         ax2.set_ylabel("% of the stress / of the cells")
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = ax2.get_legend_handles_labels()
-        ax.legend(h1 + h2, l1 + l2, loc="center right", fontsize=8)
+        ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8, framealpha=0.85)
     ax.grid(alpha=0.3)
     if title:
         ax.set_title(title)
