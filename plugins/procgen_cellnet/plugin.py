@@ -21,12 +21,13 @@ def procgen_register_rules():
     from .harmonize import LinkPruning, NetworkHarmonization
     from .melting import MeltingAverage
     from .parallel import ParallelBehaviours, Regrouping
+    from .parts import MeshParts
     from .views import BoxCubes, BoxSearchRoles, CellRaster, ForceCurve, NetworkLines
     from .watercolour import WatercolorBrush, WatercolorFlow
     return [PolygonMesh, CellSeeding, CellLinking, NetworkHarmonization, LinkPruning, StateSetting,
             RandomColorSeeds, LabelColors, ColorFromField, ColorSpreading, CrackDerivative, CorrosionCountdown,
             MeltingAverage, WatercolorBrush, WatercolorFlow, ActivatorInhibitor, NetworkLines,
-            BoxCubes, BoxSearchRoles, ForceCurve, CellRaster, Regrouping, ParallelBehaviours]
+            BoxCubes, BoxSearchRoles, ForceCurve, CellRaster, Regrouping, ParallelBehaviours, MeshParts]
 
 
 @hookimpl
