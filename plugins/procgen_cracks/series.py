@@ -173,6 +173,7 @@ def crack_series_png(domain: Any, *, stem: str = "", provenance: dict | None = N
         ax.plot(c[:, 0], c[:, 1], "o-", color="#2a5db0", lw=2, ms=3, label=PEEL_LINES[0])
         ax.axhline(target, color="#999999", lw=0.8, ls="--", label=f"{target:g} %")
         ax.set_xlabel("pass")
+        ax.xaxis.get_major_locator().set_params(integer=True)
         ax.set_ylabel("% of cells")
         ax.set_ylim(0, 102)
         ax.legend(loc="lower right", fontsize=8)
