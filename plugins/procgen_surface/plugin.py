@@ -13,9 +13,10 @@ from . import domain as _domain  # noqa: F401  (registers the SurfaceCells domai
 @hookimpl
 def procgen_register_rules():
     from .bake import BakeAtlas
+    from .cell_mesh_rule import CellMeshRule
     from .image import SurfaceImageField
     from .rules import BuildCells, CupPrimitive, LatticePrimitive
-    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceImageField, BakeAtlas]
+    return [CupPrimitive, LatticePrimitive, BuildCells, SurfaceImageField, BakeAtlas, CellMeshRule]
 
 
 @hookimpl
