@@ -59,8 +59,8 @@ class CellMeshRule(RuleBase):
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("surface__uv", MESH, "face", "out", doc="atlas UV of each face corner"),
         FieldSpec("surface__texture", MESH, "domain", "out", doc="RGBA cell atlas"),
-        FieldSpec("surface__color", MESH, "vertex", "out", doc="mean colour of the cells at a vertex"),
-        FieldSpec("cell_mesh__cell", MESH, "face", "out", dtype="int64", doc="cell under each triangle"),)
+        FieldSpec("surface__color", MESH, "vertex", "out", units="rgb",
+                  doc="mean colour of the cells at a vertex"),)
     cells: str = param("cells", doc="SurfaceCells to mesh")
     mesh: str = param("cell_mesh", doc="name of the TriMesh to create")
     rounded: bool = param(True, doc="layer surface along interpolated vertex normals (else face normals)")
@@ -95,9 +95,8 @@ class CellMeshRule(RuleBase):
         cnt = np.zeros(len(cm.vertices))
         np.add.at(col, cm.faces.ravel(), np.repeat(rgb[cm.face_cell], 3, axis=0))
         np.add.at(cnt, cm.faces.ravel(), 1.0)
-        tm.add_field("surface__color", col / np.maximum(cnt, 1.0)[:, None], at="vertex",
+        tm.add_field("surface__color", col / np.maximum(cnt, 1.0)[:, None], at="vertex", units="rgb",
                      doc="mean colour of the cells at a vertex")
-        tm.add_field("cell_mesh__cell", cm.face_cell.astype(np.int64), at="face", doc="cell under each triangle")
         state.add_domain(self.mesh, tm)
         # what the plates claim, measured on this mesh
         from procgen import geometry as geo
