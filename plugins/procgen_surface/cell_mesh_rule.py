@@ -106,6 +106,8 @@ class CellMeshRule(RuleBase):
         state.report(f"{m}.removed_cells", int(np.count_nonzero(~alive)))
         state.report(f"{m}.removed_area", float(sc.area[~alive].sum()))
         state.report(f"{m}.missing_area", float(sc.area.sum() - base_area))
+        state.report(f"{m}.removed_area_fraction", float(sc.area[~alive].sum() / sc.area.sum()))
+        state.report(f"{m}.missing_area_fraction", float(1.0 - base_area / sc.area.sum()))
         state.report(f"{m}.boundary_edges", len(boundary_edges(cm.faces)))
         state.report(f"{m}.boundary_loops", boundary_loops(cm.faces))
         state.report(f"{m}.max_crease_deg", max_crease_deg(cm.vertices, cm.faces))
