@@ -41,6 +41,9 @@ def test_logo_is_eight_closed_letters_numbered_in_reading_order(logo):
     assert len(pieces) == 8 and sorted(np.unique(obj)) == list(range(8))
     assert all(p.is_watertight and p.volume > 0 for p in pieces)   # extruded solids, not slabs of faces
     assert np.array_equal(mat, obj + 1)                              # default material k + 1
+    rgb = np.asarray(logo["vertex__color"])[logo.faces[:, 0]]          # one view colour per part
+    per_part = [np.unique(rgb[obj == k], axis=0) for k in range(8)]
+    assert all(len(c) == 1 for c in per_part) and len(np.unique(np.vstack(per_part), axis=0)) == 8
     # reading order: parts 0-3 are the upper row left to right, 4-7 the lower row
     centre = np.array([logo.vertices[logo.faces[obj == k]].reshape(-1, 3).mean(axis=0) for k in range(8)])
     assert centre[:4, 1].min() > centre[4:, 1].max()

@@ -18,6 +18,11 @@ from procgen import FieldSpec, InputError, RuleBase, State, TriMesh, param
 
 ORDERS = ("reading", "x", "y", "z")
 
+#: view colours of parts 0, 1, ... (cycled): a qualitative palette, neighbours well apart
+PART_COLORS = np.array([[0.12, 0.47, 0.71], [1.0, 0.5, 0.05], [0.17, 0.63, 0.17], [0.84, 0.15, 0.16],
+                        [0.58, 0.4, 0.74], [0.55, 0.34, 0.29], [0.89, 0.47, 0.76], [0.74, 0.74, 0.13],
+                        [0.09, 0.75, 0.81], [0.5, 0.5, 0.5]])
+
 
 def face_parts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, int]:
     """Part index of every face (faces sharing a vertex are one part) and the number of parts."""
@@ -66,7 +71,7 @@ class MeshParts(RuleBase):
     Parts are numbered 0, 1, ... in ``order`` (``reading``: rows from the top down, left to
     right, as the glyphs of a logo are read; or by centroid along x, y or z).  Part k gets
     ``materials[k]`` (default k + 1).  Writes ``face__object``, ``face__material`` and
-    ``vertex__part`` (for a picture of the parts); ``cellnet.seed`` passes the first two on to
+    ``vertex__color`` (one colour per part, for a picture of them); ``cellnet.seed`` passes the first two on to
     its cells, so ``materials`` selections and ``cellnet.parallel`` behaviours act per part.
     """
 
@@ -75,7 +80,7 @@ class MeshParts(RuleBase):
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("face__object", domain="{mesh}", at="face", intent="out", doc="part (object) index"),
         FieldSpec("face__material", domain="{mesh}", at="face", intent="out", doc="material id"),
-        FieldSpec("vertex__part", domain="{mesh}", at="vertex", intent="out", doc="part index per vertex"),
+        FieldSpec("vertex__color", domain="{mesh}", at="vertex", intent="out", doc="one colour per part"),
     )
     example: ClassVar[tuple[dict, ...]] = (
         {"rule": "mesh.primitive", "params": {"shape": "cube"}},
@@ -118,9 +123,9 @@ class MeshParts(RuleBase):
         obj = rank[part]
         mesh.add_field("face__object", obj.astype(np.int32), at="face", doc="part (object) index")
         mesh.add_field("face__material", mats[obj].astype(np.int16), at="face", doc="material id")
-        vpart = np.zeros(mesh.n_vertices, np.float64)
-        vpart[mesh.faces.reshape(-1)] = np.repeat(obj, 3)
-        mesh.add_field("vertex__part", vpart, at="vertex", doc="part index per vertex")
+        rgb = np.full((mesh.n_vertices, 3), 0.8)
+        rgb[mesh.faces.reshape(-1)] = PART_COLORS[np.repeat(obj, 3) % len(PART_COLORS)]
+        mesh.add_field("vertex__color", rgb, at="vertex", doc="one colour per part")
         state.report(f"{self.mesh}.n_parts", k)
         state.report(f"{self.mesh}.n_faces", mesh.n_faces)
         return True
