@@ -9,6 +9,8 @@ of the terrain with its colour, ORM (``bake__roughness`` / ``bake__metallic`` of
 a normal map that carries the detail a coarser mesh (``mesh_step``) leaves out.
 
 Every map is north-up (row 0 = the largest y), as image_png and heightmap_png16 write grids.
+On a periodic (tileable) grid the normals take their differences across the edges, so the
+normal map tiles with the height map.
 """
 from __future__ import annotations
 
@@ -36,9 +38,15 @@ def _grid(domain: Any, fmt: str, field: str) -> Grid:
     return domain
 
 
-def world_normals(h: np.ndarray, spacing: float, z_scale: float = 1.0) -> np.ndarray:
-    """(ny, nx, 3) unit normals of a height field (rows = increasing y), central differences."""
-    gy, gx = np.gradient(np.asarray(h, np.float64) * z_scale, spacing)
+def world_normals(h: np.ndarray, spacing: float, z_scale: float = 1.0, periodic: bool = False) -> np.ndarray:
+    """(ny, nx, 3) unit normals of a height field (rows = increasing y), central differences
+    (one-sided at the edges, or across them when ``periodic``)."""
+    h = np.asarray(h, np.float64) * z_scale
+    if periodic:
+        gx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) / (2.0 * spacing)
+        gy = (np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) / (2.0 * spacing)
+    else:
+        gy, gx = np.gradient(h, spacing)
     n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
     return n / np.linalg.norm(n, axis=-1, keepdims=True)
 
@@ -87,7 +95,7 @@ def terrain_maps(domain: Any, *, stem: str, provenance: dict | None = None,
         raise InputError(f"terrain_maps: normal_convention must be opengl or directx, got {normal_convention!r}")
     if not z_scale > 0:
         raise InputError(f"terrain_maps: z_scale must be > 0, got {z_scale}")
-    n = world_normals(g[height_field], g.spacing, z_scale)
+    n = world_normals(g[height_field], g.spacing, z_scale, g.periodic)
     files = {f"{stem}_normal.png": png_bytes(encode_normals(n, normal_convention == "directx"), provenance)}
     if "layers__thickness" in g and "material__name" in g:
         names = [str(x) for x in g["material__name"]][:4]

@@ -7,6 +7,9 @@ cells, applied to the noise, digest #29); and where the layer exists: ``coverage
 the grid, patches from smooth noise), ``rect`` [x0, y0, x1, y1] (fractions of the extent),
 ``spots`` [[x, y, r], ...] (fractions; r of the smaller side) or ``n_spots``/``spot_radius``
 (random), with ``edge`` (Gaussian sigma, cells) softening the mask's border.
+
+``periodic`` (a tileable surface): every noise, blur and spot wraps round the edges, so the
+maps tile; a ``rect`` stays where it is put (it is the user's own cut).
 """
 from __future__ import annotations
 
@@ -90,7 +93,8 @@ def _geometry(d: Mapping[str, Any], where: str) -> LayerGeometry:
         edge=_num(d, "edge", where, 0.0, None, 1.0))
 
 
-def layer_mask(geo: LayerGeometry, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+def layer_mask(geo: LayerGeometry, shape: tuple[int, int], rng: np.random.Generator,
+               periodic: bool = False) -> np.ndarray:
     """Where the layer exists, in [0, 1] (soft edges): rect AND (spots OR coverage patches)."""
     ny, nx = shape
     yy, xx = np.mgrid[0:ny, 0:nx]
@@ -107,21 +111,26 @@ def layer_mask(geo: LayerGeometry, shape: tuple[int, int], rng: np.random.Genera
         r_unit = min(nx, ny)
         inside = np.zeros(shape, dtype=bool)
         for sx, sy, sr in spots:    # a handful of spots: one vectorised disc test each
-            inside |= (xx + 0.5 - sx * nx) ** 2 + (yy + 0.5 - sy * ny) ** 2 <= (sr * r_unit) ** 2
+            dx, dy = xx + 0.5 - sx * nx, yy + 0.5 - sy * ny
+            if periodic:            # the nearest copy of the spot on the torus
+                dx = dx - nx * np.round(dx / nx)
+                dy = dy - ny * np.round(dy / ny)
+            inside |= dx ** 2 + dy ** 2 <= (sr * r_unit) ** 2
         mask &= inside
     if geo.coverage < 1.0:
-        patches = rank_normalise(smooth(rng.standard_normal(shape), geo.coverage_scale))
+        patches = rank_normalise(smooth(rng.standard_normal(shape), geo.coverage_scale, periodic))
         mask &= patches >= 1.0 - geo.coverage
     m = mask.astype(float)
-    return np.clip(smooth(m, geo.edge), 0.0, 1.0) if geo.edge > 0 else m
+    return np.clip(smooth(m, geo.edge, periodic), 0.0, 1.0) if geo.edge > 0 else m
 
 
-def layer_thickness(geo: LayerGeometry, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+def layer_thickness(geo: LayerGeometry, shape: tuple[int, int], rng: np.random.Generator,
+                    periodic: bool = False) -> np.ndarray:
     """Nominal thickness + smoothed fBm noise, times the mask, clipped at 0."""
     t = np.full(shape, geo.thickness)
     if geo.noise > 0:
-        t += geo.noise * smooth(midpoint_displacement(shape, geo.hurst, rng), geo.smoothness)
-    t *= layer_mask(geo, shape, rng)
+        t += geo.noise * smooth(midpoint_displacement(shape, geo.hurst, rng, periodic), geo.smoothness, periodic)
+    t *= layer_mask(geo, shape, rng, periodic)
     t = np.maximum(t, 0.0)
     t[t < 1e-9 * max(geo.thickness, 1e-12)] = 0.0     # no dust-thin films from soft edges
     return t
@@ -129,16 +138,20 @@ def layer_thickness(geo: LayerGeometry, shape: tuple[int, int], rng: np.random.G
 
 def base_surface(kind: str, shape: tuple[int, int], spacing: float, rng: np.random.Generator, *,
                  amplitude: float = 0.0, hurst: float = 0.8, smoothness: float = 1.0,
-                 tilt_deg: float = 0.0) -> np.ndarray:
+                 tilt_deg: float = 0.0, periodic: bool = False) -> np.ndarray:
     """The substrate the layers sit on: 'flat', 'tilt' (plane falling towards +y... i.e. downhill
-    to low y), 'fbm' (fractal relief) or 'mountain' (fBm on a radial dome, peaks inland)."""
+    to low y), 'fbm' (fractal relief) or 'mountain' (fBm on a radial dome, peaks inland).
+    ``periodic``: a tileable fBm ('tilt' and 'mountain' do not tile: refused)."""
+    if periodic and (kind in ("tilt", "mountain") or tilt_deg):
+        raise InputError(f"base surface: {kind!r}{' with a tilt' if tilt_deg else ''} does not tile "
+                         "(periodic needs base = 'flat' or 'fbm' and no tilt)")
     ny, nx = shape
     yy, xx = np.mgrid[0:ny, 0:nx].astype(float)
     z = np.zeros(shape)
     if kind == "tilt" or tilt_deg:
         z += math.tan(math.radians(tilt_deg)) * (yy + 0.5) * spacing  # high at the top row (max y)
     if kind in ("fbm", "mountain"):
-        f = smooth(midpoint_displacement(shape, hurst, rng), smoothness)
+        f = smooth(midpoint_displacement(shape, hurst, rng, periodic), smoothness, periodic)
         if kind == "mountain":
             r = np.hypot((xx + 0.5) / nx - 0.5, (yy + 0.5) / ny - 0.5) / 0.5
             dome = portable.exp(-(r / 0.55) ** 2)      # smooth: no ring where a clipped dome ends

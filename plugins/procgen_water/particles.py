@@ -35,7 +35,9 @@ Choices for the thesis's unstated equations (the thesis gives the rules in words
   drops ``deposition_rate`` of the excess.
 * evaporation: water held in a cell evaporates at ``evaporation`` per unit of true surface
   area (cell area * sqrt(1 + |grad h|^2)), top-most wet layer first; drops never evaporate.
-* drops leaving the grid are drained (their water and sediment go to the drain ledgers).
+* drops leaving the grid are drained (their water and sediment go to the drain ledgers);
+  on a periodic (torus) grid nothing drains: a drop leaving an edge comes back at the opposite
+  one, and gradients, interpolation and footprints wrap too, so the maps tile.
 
 Ledgers (exact to float rounding at every step):
   water:    sum(drop volume) + sum(held) + sum(evaporated) + sum(drained water) = sum(emitted)
@@ -83,6 +85,7 @@ class Surface:
     absorbs: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     erodible: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     steps: int = 0                    # step() calls on this surface (a cache knows if it is current)
+    periodic: bool = False            # a torus: neighbours, drops and footprints wrap at the edges
 
     @property
     def ncell(self) -> int:
@@ -193,11 +196,21 @@ def sediment_ledger(s: Surface, d: Drops, baseline: float) -> dict[str, float]:
 # --------------------------------------------------------------------------------------------
 # helpers
 
-def _bilinear_corners(pos: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Cells (n, 4) and weights (n, 4) of bilinear interpolation between cell centres."""
+def _bilinear_corners(pos: np.ndarray, shape: tuple[int, int], periodic: bool = False
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Cells (n, 4) and weights (n, 4) of bilinear interpolation between cell centres
+    (on a torus the last centre interpolates with the first across the edge)."""
     ny, nx = shape
     u = pos[:, 0] - 0.5
     v = pos[:, 1] - 0.5
+    if periodic:
+        fi, fj = np.floor(u), np.floor(v)
+        fu, fv = u - fi, v - fj
+        i0, j0 = fi.astype(np.int64) % nx, fj.astype(np.int64) % ny
+        i1, j1 = (i0 + 1) % nx, (j0 + 1) % ny
+        cells = np.stack([j0 * nx + i0, j0 * nx + i1, j1 * nx + i0, j1 * nx + i1], axis=1)
+        w = np.stack([(1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv], axis=1)
+        return cells, w
     i0 = np.clip(np.floor(u), 0, nx - 2).astype(np.int64)
     j0 = np.clip(np.floor(v), 0, ny - 2).astype(np.int64)
     fu = np.clip(u - i0, 0.0, 1.0)
@@ -234,8 +247,13 @@ def _share(keys: np.ndarray, demand: np.ndarray, available: np.ndarray, n: int
 
 
 def surface_gradient(s: Surface, h: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """dh/dx, dh/dy (ny, nx) of the top surface by central differences (one-sided at edges)."""
+    """dh/dx, dh/dy (ny, nx) of the top surface by central differences (one-sided at edges,
+    across them on a periodic grid)."""
     h = (s.height() if h is None else h).reshape(s.shape)
+    if s.periodic:
+        two = 2.0 * s.spacing
+        return ((np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) / two,
+                (np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) / two)
     gy, gx = np.gradient(h, s.spacing)
     return gx, gy
 
@@ -286,8 +304,8 @@ def release_excess(s: Surface) -> float:
     return tot
 
 
-def _height_at(h: np.ndarray, pos: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    cells, w = _bilinear_corners(pos, shape)
+def _height_at(h: np.ndarray, pos: np.ndarray, shape: tuple[int, int], periodic: bool = False) -> np.ndarray:
+    cells, w = _bilinear_corners(pos, shape, periodic)
     return np.sum(h[cells] * w, axis=1)
 
 
@@ -313,7 +331,7 @@ def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
     if m.size == 0:
         return d, speed, dh
     pos = d.pos[m]
-    cells4, w4 = _bilinear_corners(pos, s.shape)
+    cells4, w4 = _bilinear_corners(pos, s.shape, s.periodic)
     gxi = np.sum(gx.ravel()[cells4] * w4, axis=1)
     gyi = np.sum(gy.ravel()[cells4] * w4, axis=1)
     s2 = gxi * gxi + gyi * gyi
@@ -339,9 +357,11 @@ def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
         v[over] *= (vmax / sp[over])[:, None]
         sp = np.minimum(sp, vmax)
     new_pos = pos + v / s.spacing
+    if s.periodic:                    # re-enter at the opposite edge: nothing leaves a torus
+        new_pos = wrap_positions(new_pos, s.shape)
     h = s.height() if h is None else h
-    dh[m] = _height_at(h, np.clip(new_pos, 0, np.array([nx, ny]) * (1 - 1e-12)), s.shape) \
-        - _height_at(h, pos, s.shape)
+    dh[m] = _height_at(h, np.clip(new_pos, 0, np.array([nx, ny]) * (1 - 1e-12)), s.shape, s.periodic) \
+        - _height_at(h, pos, s.shape, s.periodic)
     age = d.age[m] + 1
     stop = (sp < p.stable_speed * s.spacing) & (amag <= grip)
     if p.max_age > 0:
@@ -365,6 +385,15 @@ def move(s: Surface, d: Drops, p: "WaterDrops", gx: np.ndarray, gy: np.ndarray,
     return d, speed, dh
 
 
+def wrap_positions(pos: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Positions (n, 2) in cell units brought into [0, nx) x [0, ny) on the torus (a tiny
+    negative x modulo nx rounds to nx itself: that one is put at 0)."""
+    ny, nx = shape
+    ext = np.array([nx, ny], dtype=float)
+    out = np.mod(pos, ext)
+    return np.where(out >= ext, 0.0, out)
+
+
 def _disc_offsets(radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r = int(np.ceil(radius))
     oy, ox = np.mgrid[-r:r + 1, -r:r + 1]
@@ -373,16 +402,18 @@ def _disc_offsets(radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return oy[keep], ox[keep], w[keep]
 
 
-def _footprint(pos: np.ndarray, shape: tuple[int, int], mode: Footprint, radius: float = 2.5
-               ) -> tuple[np.ndarray, np.ndarray]:
+def _footprint(pos: np.ndarray, shape: tuple[int, int], mode: Footprint, radius: float = 2.5,
+               periodic: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Cells (n, k) and weights (n, k) summing to 1 that a drop erodes from / deposits on."""
     if mode == "bilinear":
-        return _bilinear_corners(pos, shape)
+        return _bilinear_corners(pos, shape, periodic)
     if mode == "disc":
         ny, nx = shape
         oy, ox, w = _disc_offsets(radius)
         ix = np.floor(pos[:, 0]).astype(np.int64)[:, None] + ox[None, :]
         iy = np.floor(pos[:, 1]).astype(np.int64)[:, None] + oy[None, :]
+        if periodic:
+            ix, iy = ix % nx, iy % ny
         inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
         ww = np.where(inside, w[None, :], 0.0)
         ww /= ww.sum(axis=1, keepdims=True)
@@ -396,7 +427,7 @@ def _deposit(s: Surface, d: Drops, idx: np.ndarray, amount: np.ndarray, p: "Wate
     idx, amount = idx[sel], amount[sel]
     if idx.size == 0:
         return
-    cells, w = _footprint(d.pos[idx], s.shape, p.footprint, p.brush_radius)
+    cells, w = _footprint(d.pos[idx], s.shape, p.footprint, p.brush_radius, s.periodic)
     layer = np.repeat(d.kind[idx], cells.shape[1])
     if np.any(layer < 0):
         raise AssertionError("a drop carrying sediment has no sediment kind")
@@ -455,7 +486,7 @@ def interact(s: Surface, d: Drops, p: "WaterDrops", speed: np.ndarray, gx: np.nd
         ok[ok] &= s.erodible[cand[ok]]
         ei, cand = ei[ok], cand[ok]
     if ei.size:
-        cells, wts = _footprint(d.pos[ei], s.shape, p.footprint, p.brush_radius)
+        cells, wts = _footprint(d.pos[ei], s.shape, p.footprint, p.brush_radius, s.periodic)
         k = cells.shape[1]
         pc = cells.ravel()
         pl = np.repeat(cand, k)
@@ -562,7 +593,8 @@ def step(s: Surface, d: Drops, p: "WaterDrops", accelerate: bool | None = None,
     held water or materials since its last call on ``s`` (a rule stepping its own iterations);
     the compiled path then refreshes the height and releases excess water only where that
     call's drops were (the same numbers).  The numpy path ignores it."""
-    kern = kernels("procgen_water.kernels", accelerate, len(d), MIN_DROPS)
+    # the compiled kernels know the bounded grid only: a torus runs the numpy path (the reference)
+    kern = None if s.periodic else kernels("procgen_water.kernels", accelerate, len(d), MIN_DROPS)
     d = kern.step(s, d, p, continued) if kern is not None else _step(s, d, p)
     s.steps += 1
     return d

@@ -35,7 +35,9 @@ class MultiLayerSurface(RuleBase):
     thickness map: nominal thickness + midpoint-displacement noise (Hurst exponent) smoothed by
     the smoothness coefficient, restricted to a coverage / rect / spots mask (thesis 2.4.1).
     ``base = 'grid'`` lays the layers on a Grid an earlier step made (grid.load: a heightmap,
-    a DEM), keeping its shape, spacing, origin and other fields.
+    a DEM), keeping its shape, spacing, origin and other fields (and its ``periodic`` flag).
+    ``periodic``: a tileable surface on a torus grid (noise, blurs and spots wrap; drops that
+    leave an edge come back at the opposite one).
     """
 
     name: ClassVar[str] = "water.surface"
@@ -62,10 +64,14 @@ class MultiLayerSurface(RuleBase):
     base_hurst: float = param(0.8, gt=0.0, le=1.0, doc="Hurst exponent of the base relief")
     base_smoothness: float = param(1.0, ge=0.0, units="cells", doc="Gaussian blur of the base relief")
     tilt_deg: float = param(0.0, ge=0.0, lt=89.0, units="deg", doc="tilt of the base (high at max y)")
+    periodic: bool = param(False, doc="tileable: a torus grid whose maps and drops wrap at the edges")
 
     def validate(self) -> None:
         if self.base_grid and self.base != "grid":
             raise ValueError(f"base_grid = {self.base_grid!r} needs base = 'grid'")
+        if self.periodic and (self.base in ("tilt", "mountain") or self.tilt_deg):
+            raise ValueError(f"periodic = true needs base = 'flat', 'fbm' or 'grid' and no tilt "
+                             f"(a {'tilt' if self.tilt_deg else self.base} does not tile)")
         try:
             parse_layers(self.layers)
             check_grid((self.ny, self.nx), "water.surface")
@@ -84,6 +90,7 @@ class MultiLayerSurface(RuleBase):
         table, geos = parse_layers(self.layers)
         rng = state.rng()
         src = state.get(self.base_grid or self.grid, Grid) if self.base == "grid" else None
+        periodic = self.periodic or (src is not None and src.periodic)
         if src is not None:
             shape, spacing, origin = src.shape, src.spacing, src.origin
             check_grid(shape, "water.surface")
@@ -91,9 +98,10 @@ class MultiLayerSurface(RuleBase):
         else:
             shape, spacing, origin = (self.ny, self.nx), self.spacing, (0.0, 0.0)
             base = base_surface(self.base, shape, self.spacing, rng, amplitude=self.base_amplitude,
-                                hurst=self.base_hurst, smoothness=self.base_smoothness, tilt_deg=self.tilt_deg)
-        t = np.stack([layer_thickness(geo, shape, rng) for geo in geos], axis=-1)
-        g = Grid(shape, spacing, origin)
+                                hurst=self.base_hurst, smoothness=self.base_smoothness, tilt_deg=self.tilt_deg,
+                                periodic=periodic)
+        t = np.stack([layer_thickness(geo, shape, rng, periodic) for geo in geos], axis=-1)
+        g = Grid(shape, spacing, origin, periodic=periodic)
         for name, arr, info in (src.fields() if src is not None else ()):
             if name not in {spec.name for spec in self.fields}:
                 g.add_field(name, arr.copy(), at=info.at, units=info.units, doc=info.doc)

@@ -82,7 +82,7 @@ def surface_view(state: State, grid: str) -> tuple[Grid, Surface, MaterialTable]
                 deposit=vl("sediment__deposit"), emitted=v("water__emitted"),
                 evaporated=v("water__evaporated"), drained=v("water__drained"),
                 drained_sediment=v("sediment__drained"), source=v("layers__source"),
-                path=v("water__path"), **material_arrays(table))
+                path=v("water__path"), periodic=g.periodic, **material_arrays(table))
     return g, s, table
 
 

@@ -16,7 +16,12 @@ from ..state import State
 
 @dataclass(kw_only=True)
 class FractalNoise(RuleBase):
-    """A fractal (fBm) heightmap on a new Grid: spectral synthesis or midpoint displacement."""
+    """A fractal (fBm) heightmap on a new Grid: spectral synthesis or midpoint displacement.
+
+    ``periodic``: the heightmap tiles (spectral synthesis on the grid's own torus, so opposite
+    edges meet like any two neighbouring cells) and the Grid is made periodic, so later rules
+    wrap their neighbourhoods too.  Midpoint displacement and the dome do not tile: refused.
+    """
 
     example: ClassVar[tuple[dict, ...]] = ({"rule": "grid.noise", "params": {"nx": 32, "ny": 24}},)
     name: ClassVar[str] = "grid.noise"
@@ -33,6 +38,13 @@ class FractalNoise(RuleBase):
     amplitude: float = param(1.0, ge=0.0, units="length", doc="standard deviation of the height")
     offset: float = param(0.0, units="length", doc="mean height")
     dome: float = param(0.0, ge=0.0, units="length", doc="add a radial dome of this height (mountains)")
+    periodic: bool = param(False, doc="a tileable (torus) grid: spectral fBm wrapped at the edges")
+
+    def validate(self) -> None:
+        if self.periodic and self.method != "spectral":
+            raise ValueError("periodic = true needs method = 'spectral' (midpoint displacement does not tile)")
+        if self.periodic and self.dome > 0:
+            raise ValueError("periodic = true cannot have a dome (a dome does not tile)")
 
     def memory_estimate(self) -> int:
         return int(self.nx * self.ny * 8 * 24)
@@ -43,14 +55,14 @@ class FractalNoise(RuleBase):
     def step(self, state: State) -> bool:
         rng = state.rng()
         shape = (self.ny, self.nx)
-        base = fbm_spectral(rng, shape, self.hurst) if self.method == "spectral" \
+        base = fbm_spectral(rng, shape, self.hurst, periodic=self.periodic) if self.method == "spectral" \
             else midpoint_displacement(rng, shape, self.hurst)
         h = self.offset + self.amplitude * base
         if self.dome > 0:
             yy, xx = np.meshgrid(np.linspace(-1, 1, self.ny), np.linspace(-1, 1, self.nx), indexing="ij")
             c = np.clip(1.0 - np.sqrt(xx ** 2 + yy ** 2), 0.0, None)
             h = h + self.dome * c * np.sqrt(c)       # c ** 1.5 (np.power's bits vary by CPU)
-        g = Grid(shape, self.spacing)
+        g = Grid(shape, self.spacing, periodic=self.periodic)
         g.add_field("surface__height", h, at="cell", units="length", doc="fractal height")
         state.add_domain(self.grid, g)
         return True

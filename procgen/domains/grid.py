@@ -18,13 +18,17 @@ class Grid(Domain):
 
     Fields keep the raster shape (not flattened) because every raster tool, image writer and
     numpy stencil expects it. Several layers are trailing dims of a field, named by ``layers``.
+    ``periodic``: the raster is a torus (the last column touches the first, the last row the
+    first), so what is made on it tiles; its cell graph wraps.  Rules that look at neighbours
+    read it from here (one flag for both axes: a texture tiles in both directions or not at all).
     """
 
     kind: ClassVar[str] = "Grid"
     locations: ClassVar[tuple[str, ...]] = ("cell",)
 
     def __init__(self, shape: tuple[int, int], spacing: float = 1.0,
-                 origin: tuple[float, float] = (0.0, 0.0), layers: tuple[str, ...] = ()) -> None:
+                 origin: tuple[float, float] = (0.0, 0.0), layers: tuple[str, ...] = (),
+                 periodic: bool = False) -> None:
         super().__init__()
         try:
             ny, nx = (int(v) for v in shape)
@@ -38,6 +42,7 @@ class Grid(Domain):
         self.spacing = float(spacing)
         self.origin = (float(origin[0]), float(origin[1]))
         self.layers = tuple(str(n) for n in layers)
+        self.periodic = bool(periodic)
         self._graphs: dict[str, CellGraph] = {}
 
     def location_shape(self, at: str) -> tuple[int, ...]:
@@ -58,10 +63,11 @@ class Grid(Domain):
         return self.origin[1] + (np.arange(self.shape[0]) + 0.5) * self.spacing
 
     def cell_graph(self, neighbourhood: str = "moore") -> "CellGraph":
-        """The raster's cell graph (cell id = row * nx + column), 8 or 4 neighbours, no wrap."""
+        """The raster's cell graph (cell id = row * nx + column), 8 or 4 neighbours; on a
+        periodic grid the neighbours wrap across the edges (every cell has all of them)."""
         from ..ca.graph import grid_graph
         if neighbourhood not in self._graphs:
-            self._graphs[neighbourhood] = grid_graph(*self.shape).neighbourhood(neighbourhood)
+            self._graphs[neighbourhood] = grid_graph(*self.shape, wrap=self.periodic).neighbourhood(neighbourhood)
         return self._graphs[neighbourhood]
 
     @property
@@ -74,9 +80,13 @@ class Grid(Domain):
         return {}
 
     def topology_meta(self) -> dict[str, Any]:
-        return {"shape": list(self.shape), "spacing": self.spacing, "origin": list(self.origin),
+        meta = {"shape": list(self.shape), "spacing": self.spacing, "origin": list(self.origin),
                 "layers": list(self.layers)}
+        if self.periodic:                 # only when set: saved non-periodic grids stay as they were
+            meta["periodic"] = True
+        return meta
 
     @classmethod
     def from_topology(cls, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> "Grid":
-        return cls(tuple(meta["shape"]), meta["spacing"], tuple(meta["origin"]), tuple(meta.get("layers", ())))
+        return cls(tuple(meta["shape"]), meta["spacing"], tuple(meta["origin"]), tuple(meta.get("layers", ())),
+                   periodic=bool(meta.get("periodic", False)))
