@@ -1,5 +1,6 @@
 """The wood-weathering family's hooks: its rules (grain, texture mapping, age colour, exposure,
-the table stand-in, the link points of Fig. 4.7), the cell-diagram exporter, and its recipes and gallery list."""
+the table stand-in, the link points of Fig. 4.7), the cell-diagram exporters, and its recipes
+and gallery list."""
 from procgen import hookimpl
 from procgen.data import shipping_hooks
 
