@@ -89,7 +89,8 @@ def splat_weights(grid: Grid) -> np.ndarray:
 def terrain_maps(domain: Any, *, stem: str, provenance: dict | None = None,
                  height_field: str = "surface__height", z_scale: float = 1.0,
                  normal_convention: str = "opengl") -> dict[str, bytes]:
-    """Normal map, splat map and the flow / wetness / deposition / erosion masks the grid has."""
+    """Normal map, splat map and the flow / wetness / deposition / erosion masks the grid has
+    (a mask that is zero everywhere, e.g. flow on a grid no drop ran on, is left out)."""
     g = _grid(domain, "terrain_maps", height_field)
     if normal_convention not in ("opengl", "directx"):
         raise InputError(f"terrain_maps: normal_convention must be opengl or directx, got {normal_convention!r}")
@@ -103,7 +104,7 @@ def terrain_maps(domain: Any, *, stem: str, provenance: dict | None = None,
                                                {"procgen_channels": ",".join(names)})
     for name in MASKS:
         v = mask_values(g, name)
-        if v is None:
+        if v is None or not np.any(v):           # no water ran here: an all-black mask says nothing
             continue
         top = float(v.max()) if np.isfinite(v).all() and v.max() > 0 else 1.0
         q = np.round(np.clip(np.flipud(v) / top, 0, 1) * 255).astype(np.uint8)
@@ -113,14 +114,20 @@ def terrain_maps(domain: Any, *, stem: str, provenance: dict | None = None,
 
 
 def terrain_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                height_field: str = "surface__height", color_field: str = "surface__color",
+                height_field: str = "surface__height", color_field: str = "",
                 z_scale: float = 1.0, mesh_step: int = 4) -> bytes:
     """GLB of the terrain: a mesh of every ``mesh_step``-th cell centre, glTF metallic-roughness
     with the colour field as base colour, the stack's baked roughness/metallic as ORM and a
-    normal map of the full-resolution height relative to the coarse mesh's surface."""
+    normal map of the full-resolution height relative to the coarse mesh's surface.
+
+    ``color_field`` '' = the stack's unlit albedo ``bake__color`` when the grid has it (a
+    renderer lights the material itself: a shaded colour would be lit twice), else
+    ``surface__color``."""
     from scipy.ndimage import map_coordinates
 
     g = _grid(domain, "terrain_glb", height_field)
+    if not color_field:
+        color_field = "bake__color" if "bake__color" in g else "surface__color"
     _grid(g, "terrain_glb", color_field)
     if not 1 <= int(mesh_step) <= 64 or not z_scale > 0:
         raise InputError(f"terrain_glb: need mesh_step in 1..64 and z_scale > 0, got {mesh_step}, {z_scale}")
@@ -143,7 +150,7 @@ def terrain_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
     ci = np.interp(np.arange(nx), cols, np.arange(k))
     R, C = np.meshgrid(ri, ci, indexing="ij")
     coarse = map_coordinates(h[rr, cc], [R, C], order=1, mode="nearest")
-    fine, base = world_normals(h, g.spacing), world_normals(coarse, g.spacing)
+    fine, base = world_normals(h, g.spacing, periodic=g.periodic), world_normals(coarse, g.spacing)
     gy, gx = np.gradient(coarse, g.spacing)
     t = np.stack([np.ones_like(gx), np.zeros_like(gx), gx], -1)
     t /= np.linalg.norm(t, axis=-1, keepdims=True)
