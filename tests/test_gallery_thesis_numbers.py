@@ -96,3 +96,21 @@ def test_plate_d_2_stages_end_at_the_thesis_time_ratios():
     its = [s["iterations"] for s in _steps("terrain/plate-d-2") if s["rule"] == "layers.corrode"]
     ends = np.cumsum(its) / np.sum(its)
     assert np.allclose(ends, [0.01, 0.2, 0.4, 0.6, 0.8, 1.0])
+
+
+def test_plate_d_13_has_two_light_sources_and_two_grooves_at_a_right_angle():
+    """Plate D-13: "(a) ceramics only with two light sources; (b) ... a virtual tool (making the
+    two lines with a right angle)"."""
+    steps = _steps("meshes/d-13")
+    shade = [s for s in steps if s["rule"] == "layers.shade" and s["params"].get("cells") == "ceramic"]
+    assert len(shade) == 1 and len(shade[0]["params"]["extra_lights"]) + 1 == 2
+    path = np.asarray(next(s for s in steps if s["rule"] == "layers.tool")["params"]["path"], float)
+    assert len(path) == 3                              # two straight grooves
+    a, b = path[1] - path[0], path[2] - path[1]
+    assert abs(a @ b) <= 1e-12 * np.linalg.norm(a) * np.linalg.norm(b)
+
+
+def test_plate_d_17_burns_three_layers():
+    """Plate D-17: "Fire propagation over a three layers object"."""
+    corrode = next(s for s in _steps("meshes/d-fire") if s["rule"] == "layers.corrode")
+    assert len(corrode["params"]["consume"]) == 3
