@@ -114,3 +114,11 @@ def test_plate_d_17_burns_three_layers():
     """Plate D-17: "Fire propagation over a three layers object"."""
     corrode = next(s for s in _steps("meshes/d-fire") if s["rule"] == "layers.corrode")
     assert len(corrode["params"]["consume"]) == 3
+
+
+def test_plate_d_1_panels_are_the_thesis_regrouping_functions_in_order():
+    """Plate D-1: (a) pure random, then linear, square, cubic and X4-type regrouping, (f) binary."""
+    kinds = [s["params"]["regroup"] for s in _steps("terrain/plate-d-1") if s["rule"] == "water.weak_map"]
+    assert kinds[:5] == ["none", "linear", "square", "cubic", "x4"]
+    files = [o["file"] for o in _raw("terrain/plate-d-1")["outputs"]][:6]
+    assert [f[0] for f in files] == list("abcdef")
