@@ -20,22 +20,45 @@ import scipy.sparse as sp
 
 from procgen import FieldSpec, State, param
 
-from .boxes import pairs_kdtree
 from .cellrule import EXAMPLE_NET, CellRule, Next
+from .states import selection
 
 
-def ring_matrices(net, r1: float, r2: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-    """(A1, A2): cells closer than r1 (self included) and in [r1, r2), as 0/1 matrices."""
-    pairs = pairs_kdtree(net.positions, r2)
-    d = np.linalg.norm(net.positions[pairs[:, 0]] - net.positions[pairs[:, 1]], axis=1)
+def ring_matrices(net, r1: float, r2: float,
+                  rows: np.ndarray | None = None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """(A1, A2): cells closer than r1 (self included) and in [r1, r2), as 0/1 matrices.
+
+    ``rows`` (cell indices, default all) are the cells whose sums are wanted: row k of both
+    matrices belongs to cell ``rows[k]``, the columns are every cell.  A rule that updates one
+    material only (Figure 1's lichen glyph) keeps the rings of those cells alone: R2 = 6 cs holds
+    about a hundred cells, so rings for a whole million-cell network would take gigabytes.
+    """
+    from scipy.spatial import cKDTree
+
+    p = net.positions
     n = net.n_cells
+    rows = np.arange(n) if rows is None else np.asarray(rows, np.int64)
+    if len(rows) == 0:
+        empty = sp.csr_matrix((0, n))
+        return empty, empty
+    tree = cKDTree(p, balanced_tree=False, compact_nodes=False)
+    sub = cKDTree(p[rows], balanced_tree=False, compact_nodes=False)
+    m = sub.sparse_distance_matrix(tree, r2 * (1 + 1e-9), output_type="ndarray")
+    i, j = m["i"].astype(np.int64), m["j"].astype(np.int64)
+    keep = rows[i] != j                                   # the cell itself: added once below
+    i, j = i[keep], j[keep]
+    d = np.linalg.norm(p[rows[i]] - p[j], axis=1)         # exact, as the links: ``< r``
+    near = d < r2
+    i, j, d = i[near], j[near], d[near]
+    shape = (len(rows), n)
 
-    def sym(p):
-        i = np.concatenate([p[:, 0], p[:, 1]])
-        j = np.concatenate([p[:, 1], p[:, 0]])
-        return sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
-    inner = pairs[d < r1]
-    return sym(inner) + sp.identity(n, format="csr"), sym(pairs[d >= r1])
+    def mat(mask, extra=None):
+        a, b = i[mask], j[mask]
+        if extra is not None:
+            a, b = np.concatenate([a, extra[0]]), np.concatenate([b, extra[1]])
+        return sp.csr_matrix((np.ones(len(a)), (a, b)), shape=shape)
+    inner = d < r1
+    return mat(inner, (np.arange(len(rows)), rows)), mat(~inner)
 
 
 @dataclass(kw_only=True)
@@ -63,14 +86,23 @@ class ActivatorInhibitor(CellRule):
 
     def setup(self, state: State) -> None:
         net = self.network(state)
-        self._rings = ring_matrices(net, self.r1 * net.cs, self.r2 * net.cs)
+        chosen = selection(net, self.materials, self.labels, self.name)
+        self._rows = np.nonzero(chosen)[0] if not chosen.all() else np.arange(net.n_cells)
+        self._rings = ring_matrices(net, self.r1 * net.cs, self.r2 * net.cs, self._rows)
         if self.field not in net:
             alive = state.rng().random(net.n_cells) < self.density
             net.add_field(self.field, alive, at="cell", doc="activated cells")
 
     def advance(self, net, send: np.ndarray, update: np.ndarray) -> Next:
         p = np.asarray(net[self.field], bool)
+        if len(self._rows) < net.n_cells and update.any():
+            inside = np.zeros(net.n_cells, bool)
+            inside[self._rows] = True
+            if (update & ~inside).any():             # the selection grew since setup: all rings
+                self._rows = np.arange(net.n_cells)
+                self._rings = ring_matrices(net, self.r1 * net.cs, self.r2 * net.cs)
         a1, a2 = self._rings
         s = (p & send).astype(float)
-        new = (self.h + self.j1 * (a1 @ s) + self.j2 * (a2 @ s)) > 0
+        new = p.copy()
+        new[self._rows] = (self.h + self.j1 * (a1 @ s) + self.j2 * (a2 @ s)) > 0
         return Next(update, {self.field: np.where(update, new, p)})
