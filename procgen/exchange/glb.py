@@ -7,7 +7,29 @@ import numpy as np
 
 from ..domains import Domain, TriMesh
 from ..errors import InputError
+from .image import png_bytes
 from .obj import corner_uvs, texture_image, unique_rows, vertex_colors
+
+
+class EncodedPNG:
+    """A texture already encoded by :func:`png_bytes`, standing in for a PIL image in trimesh's
+    glTF writer (which calls ``save`` and stores what it writes).
+
+    Why: trimesh re-encodes every texture at zlib's default level, once per material slot (the
+    ORM image fills two: occlusion and metallic-roughness); for a large atlas that encoding was
+    most of an export's time.  Encoded once here, through the one PNG encoder (its compression
+    policy and provenance chunk), and written as bytes in every slot that uses it (trimesh
+    stores equal bytes once)."""
+
+    format = "PNG"
+
+    def __init__(self, array: np.ndarray, provenance: dict[str, Any] | None = None) -> None:
+        self.data = png_bytes(np.ascontiguousarray(array), provenance)
+        self.size = (int(array.shape[1]), int(array.shape[0]))
+        self.mode = "L" if array.ndim == 2 else {1: "L", 3: "RGB", 4: "RGBA"}[int(array.shape[2])]
+
+    def save(self, fp: Any, format: str | None = None, **_: Any) -> None:   # noqa: A002 (PIL's name)
+        fp.write(self.data)
 
 
 def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
@@ -28,7 +50,8 @@ def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | N
     if not isinstance(domain, TriMesh):
         raise InputError(f"glb: expected a TriMesh, got {domain.kind}")
     mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field,
-                           cmap=cmap, orm_field=orm_field, normal_field=normal_field)
+                           cmap=cmap, orm_field=orm_field, normal_field=normal_field,
+                           image=lambda a: EncodedPNG(a, provenance))
     scene = trimesh.Scene(mesh if uv_field else with_vertex_colour_material(mesh, color_field is not None))
     if provenance:
         scene.metadata["procgen"] = provenance
@@ -54,11 +77,16 @@ def with_vertex_colour_material(mesh: Any, coloured: bool) -> Any:
 
 def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field: str | None = None,
                     texture_field: str | None = None, cmap: str = "terrain",
-                    orm_field: str | None = None, normal_field: str | None = None) -> Any:
-    """A ``trimesh.Trimesh`` carrying the domain's vertex colours or UV-mapped texture."""
+                    orm_field: str | None = None, normal_field: str | None = None,
+                    image: Any = None) -> Any:
+    """A ``trimesh.Trimesh`` carrying the domain's vertex colours or UV-mapped texture.
+
+    ``image``: how a texture array becomes the material's image (default a PIL image, which the
+    preview renderer samples; the GLB writer passes :class:`EncodedPNG`)."""
     import trimesh
     from PIL import Image
 
+    image = image or Image.fromarray
     if (uv_field is None) != (texture_field is None):
         raise InputError("glb: give both uv_field and texture_field for a textured mesh")
     v = domain.vertices if domain.dim == 3 else np.column_stack([domain.vertices, np.zeros(domain.n_vertices)])
@@ -72,13 +100,13 @@ def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field
         alpha = tex.shape[2] == 4
         maps: dict[str, Any] = {"metallicFactor": 0.0, "roughnessFactor": 0.8}
         if orm_field:
-            orm = Image.fromarray(texture_image(domain, orm_field))
+            orm = image(texture_image(domain, orm_field))
             maps = {"metallicFactor": 1.0, "roughnessFactor": 1.0, "metallicRoughnessTexture": orm,
                     "occlusionTexture": orm}
         if normal_field:
-            maps["normalTexture"] = Image.fromarray(texture_image(domain, normal_field))
+            maps["normalTexture"] = image(texture_image(domain, normal_field))
         material = trimesh.visual.material.PBRMaterial(
-            name="procgen", baseColorTexture=Image.fromarray(tex), **maps,
+            name="procgen", baseColorTexture=image(tex), **maps,
             alphaMode="MASK" if alpha else "OPAQUE", alphaCutoff=0.5 if alpha else None, doubleSided=True)
         visual = trimesh.visual.TextureVisuals(uv=uniq[:, 1:], material=material)
         mesh = trimesh.Trimesh(vertices=verts, faces=inverse.reshape(-1, 3), visual=visual, process=False)
