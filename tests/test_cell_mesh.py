@@ -138,6 +138,23 @@ def test_rounded_layer_surface_creases_less_with_thickness_and_keeps_the_offset_
     assert vol > flat_offset
 
 
+def test_rounded_normals_vary_continuously_across_facet_edges(ball):
+    """The normal a vertex moved along turns by at most the input's vertex-normal turn per unit
+    length (the largest angle between two vertex normals of a facet over its smallest altitude):
+    a Lipschitz bound that a jump at a facet edge (face normals) would break."""
+    m, sc = ball
+    r = cell_mesh(sc, np.full(sc.n_cells, 0.1), rounded=True)
+    e = np.concatenate([r.faces[:, [0, 1]], r.faces[:, [1, 2]], r.faces[:, [2, 0]]])
+    turn = np.arccos(np.clip(np.sum(r.normals[e[:, 0]] * r.normals[e[:, 1]], axis=1), -1, 1))
+    length = np.linalg.norm(r.base[e[:, 0]] - r.base[e[:, 1]], axis=1)
+    vn, f = m.vertex_normals, m.faces
+    corner_turn = np.arccos(np.clip(np.sum(vn[f] * vn[f[:, [1, 2, 0]]], axis=2), -1, 1)).max()
+    altitude = (2 * m.area_faces / m.edges_unique_length.max()).min()
+    ok = length > 1e-6 * sc.size
+    assert np.all(turn[ok] <= corner_turn / altitude * length[ok] * (1 + 1e-6))
+    assert turn.max() < np.radians(np.degrees(m.face_adjacency_angles.max()) / 4)
+
+
 def test_phong_shape_rounds_the_facets_themselves(ball):
     m, sc = ball
     theta = np.degrees(_dihedrals(m).max())
