@@ -164,6 +164,8 @@ class CrackPropagate(RuleBase):
         FieldSpec("crack__face", "{lines}", "point", "out", dtype="int64", doc="facet of the segment"),
         FieldSpec("crack__layer", "{lines}", "line", "out", dtype="int64", doc="stack layer"),
         FieldSpec("crack__type", "{lines}", "line", "out", dtype="int64", doc="0 I, 1 T, 2 Y, 3 X"),
+        FieldSpec("series__line", "{lines}_series", "line", "out", dtype="int64",
+                  doc="per-CM-step series (Figure 5.19): 0 CMs alive, 1 released %, 2 unstable %"),
     )
     default_iterations: ClassVar[int] = 1          # one series; run with until = "stable"
     cells: str = param("cells", doc="SurfaceCells domain with stress__spectrum")

@@ -116,7 +116,8 @@ class PeelConvergence(RuleBase):
     creates: ClassVar[dict[str, str]] = {"{series}": "Polylines"}
     default_iterations: ClassVar[int] = 1
     fields: ClassVar[tuple[FieldSpec, ...]] = (
-        FieldSpec("peel__level", "{cells}", "cell", "in", doc="cells from the crack border"),)
+        FieldSpec("peel__level", "{cells}", "cell", "in", doc="cells from the crack border"),
+        FieldSpec("series__line", "{series}", "line", "out", dtype="int64", doc="0 converged %"),)
     example: ClassVar[tuple[dict, ...]] = (
         {"rule": "mesh.primitive", "params": {"shape": "cube", "subdivisions": 0}},
         {"rule": "surface.cells", "params": {"target_cells": 1500}},
