@@ -160,3 +160,28 @@ def test_crack_mirror_flips_with_the_light(host):
     a1 = np.radians(90.0 - elev)
     a2 = np.arcsin(np.sin(a1) / n)
     np.testing.assert_allclose(sh_a.wa, 0.01 * np.tan(a2) * side, rtol=1e-9, atol=1e-15)
+
+
+# -- Plate D-19 -------------------------------------------------------------------------------
+def test_d_19_flowers_point_along_the_stressed_axis(host):
+    """A field along axis 0 only: every painted flower is a petal pair along the facet's ex."""
+    from procgen_cracks.flowers3d import flower_cells, star_radius
+
+    recipe = load_recipe("meshes/plate-5-5", host, ["steps.cells.params.cell_size=0.01",
+                                                    "steps.stress.params.percent=[100.0, 0.0, 0.0, 0.0]",
+                                                    "steps.stress.params.jitter=0.0"])
+    recipe = dataclasses.replace(recipe, steps=recipe.steps[:4], outputs=[])
+    cells = run(recipe, host, seed=1, progress=False).state.domains["cells"]
+    spec = np.asarray(cells["stress__spectrum"])[:, -1]
+    every, size = 10, 0.45
+    inside = flower_cells(cells, spec, every, size)
+    ij = np.asarray(cells.ij)
+    d = ij[inside] - np.rint(ij[inside] / every).astype(np.int64) * every
+    # petals reach out to size * every cells along x and stay within the gap width along y
+    assert np.abs(d[:, 0]).max() == int(np.floor(size * every + 0.5))
+    assert np.abs(d[:, 1]).max() <= 1
+    # the star outline: tips at the petal lengths, 0.22 of the longest between two petals
+    tips = np.array([[4.0, 1.0, 2.0, 3.0]])
+    th = np.array([0.0, np.pi / 4, np.pi / 2, np.pi, np.pi / 8, 5 * np.pi / 4])
+    r = star_radius(th, np.repeat(tips, len(th), axis=0))
+    np.testing.assert_allclose(r, [4.0, 1.0, 2.0, 4.0, 0.88, 1.0])

@@ -10,8 +10,9 @@ def procgen_register_rules():
     from .peel import Peel
     from .render_rules import RULES as RENDER_RULES
     from .rules import RULES
+    from .flowers3d import RULES as FLOWER_RULES
     from .series import RULES as SERIES_RULES
-    return [*RULES, *RENDER_RULES, *SERIES_RULES, ImposedCracks, Peel, CrackBake]
+    return [*RULES, *RENDER_RULES, *SERIES_RULES, *FLOWER_RULES, ImposedCracks, Peel, CrackBake]
 
 
 @hookimpl
