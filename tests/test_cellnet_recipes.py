@@ -27,7 +27,7 @@ def test_fig_9_twice_gives_identical_bytes(host, tmp_path):
 def test_fig_1_runs_every_effect_and_exports_readable_splats(host, tmp_path):
     import trimesh
 
-    res = _render(host, tmp_path, "fig-1", ["steps.1.params.target_cells=3000"], "s")
+    res = _render(host, tmp_path, "fig-1", ["steps.seed.params.target_cells=3000"], "s")
     out = tmp_path / "s"
     run = json.loads((out / "run.json").read_text())
     reports = run["reports"]
