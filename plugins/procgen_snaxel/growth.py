@@ -16,9 +16,10 @@ from procgen import portable
 from procgen.accel import MIN_SNAXELS, kernels
 from procgen.geometry import signed_area
 
+from .bumps import bump_statistics
 from .fractal import raster_area_perimeter
 from .params import GrowthParams
-from .snake import CURVE, ELEN, POS, T, U, UNVISITED, V, Snake
+from .snake import CURVE, DX, DY, ELEN, OX, OY, POS, T, U, UNVISITED, V, Snake
 from .speeds import base_speed, blend, circular_profile, effect_coefficient, linear_profile
 from .topology import Topology
 
@@ -86,6 +87,7 @@ class CloudGrowth:
         self.vs = np.zeros(0)
         self.cluster_of = np.zeros(0, np.int64)
         self.jitter = np.ones(0)           # per curve: the factor on its table limit (limit_jitter)
+        self.t_curve = np.zeros(0)         # per curve: travelled distance inherited from the curve it broke from
         self.n_curves = 0
         self.marked = marked
         self.guide = guide     # points (k, 2) -> attraction (higher = preferred) for seed_policy field / sketch
@@ -124,6 +126,60 @@ class CloudGrowth:
             out |= p[:, 1] < self.cfg.condensation_level
         return out
 
+    def stop_lines(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where each snaxel ``idx`` (heading into a blocked vertex) meets the boundary: the distance
+        along its edge to the first line it would cross (the domain margin's four sides, the
+        condensation level) and which line (-1: none, a mesh's hull vertex blocks it)."""
+        f = self.snake.flts[idx]
+        o = (f[:, OX], f[:, OY])
+        d = (f[:, DX], f[:, DY])
+        lines: list[tuple[int, float, float]] = []        # (axis, bound, +1: coord >= bound / -1: <=)
+        if self.bounds is not None:
+            x0, y0, x1, y1 = self.bounds
+            m = self.cfg.margin
+            lines += [(0, x0 + m, 1.0), (0, x1 - m, -1.0), (1, y0 + m, 1.0), (1, y1 - m, -1.0)]
+        if self.cfg.condensation_level is not None:
+            lines.append((1, float(self.cfg.condensation_level), 1.0))
+        cap = np.full(len(idx), np.inf)
+        which = np.full(len(idx), -1, np.int64)
+        for k, (axis, bound, sign) in enumerate(lines):
+            out = sign * d[axis] < 0.0                       # moving towards this line
+            room = np.divide(sign * (o[axis] - bound), -sign * d[axis], out=np.full(len(idx), np.inf), where=out)
+            room = np.maximum(room, 0.0)
+            nearer = room < cap
+            cap = np.where(nearer, room, cap)
+            which = np.where(nearer, k, which)
+        return cap, which
+
+    def stop_distance(self, idx: np.ndarray) -> np.ndarray:
+        """How far along its edge each snaxel ``idx`` (heading into a blocked vertex) may go: to where
+        the edge meets the domain margin or the condensation level. Figure 3.22's caption: "the
+        snaxels are stopped when they reach the boundaries of the screen", so the front stops on
+        the boundary line itself and leaves a straight cut (the "horizontal line at the bottom").
+        A destination blocked for another reason (a mesh's hull vertex) meets no line: the snaxel
+        stays where it is."""
+        cap, which = self.stop_lines(idx)
+        return np.where(which >= 0, cap, self.snake.flts[idx, POS])
+
+    def _heading_out(self) -> tuple[np.ndarray, np.ndarray]:
+        """Snaxels heading into a blocked vertex and their stop distances (:meth:`stop_distance`)."""
+        idx = np.flatnonzero(self.snake.blocked[self.snake.ints[:, V]])
+        return idx, self.stop_distance(idx)
+
+    def _clamp_to_boundary(self, moved: bool) -> None:
+        """Stop snaxels on the boundary line. After the Euler motion (``moved``) the overshoot is
+        taken off their travelled distance too; children just placed past it are placed on it."""
+        idx, cap = self._heading_out()
+        if len(idx) == 0:
+            return
+        f = self.snake.flts
+        over = f[idx, POS] - cap
+        hit = over > 0.0
+        if hit.any():
+            f[idx[hit], POS] = cap[hit]
+            if moved and self.phase == "grow":
+                f[idx[hit], T] -= over[hit]
+
     def _source_vertex(self) -> int:
         """The free vertex nearest to ``source`` (default: the domain centre, or the origin)."""
         cfg, topo = self.cfg, self.topo
@@ -148,7 +204,7 @@ class CloudGrowth:
             self.marked = np.concatenate([self.marked, np.zeros(self.topo.n_vertices - len(self.marked), bool)])
 
     # -- curve table ------------------------------------------------------------------------
-    def _new_curve(self, cluster: int, copy_of: int | None = None) -> int:
+    def _new_curve(self, cluster: int, copy_of: int | None = None, inherit: float = 0.0) -> int:
         cid = self.n_curves
         if cid >= len(self.vb):
             cap = max(64, 2 * len(self.vb))
@@ -156,6 +212,8 @@ class CloudGrowth:
             self.vs = np.resize(self.vs, cap)
             self.cluster_of = np.resize(self.cluster_of, cap)
             self.jitter = np.resize(self.jitter, cap)
+            self.t_curve = np.resize(self.t_curve, cap)
+        self.t_curve[cid] = inherit
         if copy_of is None:   # A8: independent draws for the base value and the shape speed
             self.vb[cid], self.vs[cid] = self.rng_speed.uniform(self.cfg.v_min, self.cfg.v_max, 2)
             j = self.cfg.limit_jitter
@@ -163,6 +221,7 @@ class CloudGrowth:
         else:
             self.vb[cid], self.vs[cid] = self.vb[copy_of], self.vs[copy_of]
             self.jitter[cid] = self.jitter[copy_of]
+            self.t_curve[cid] = self.t_curve[copy_of]
         self.cluster_of[cid] = cluster
         self.n_curves += 1
         return cid
@@ -239,7 +298,7 @@ class CloudGrowth:
 
     def _split_long(self, runs: Runs, t: np.ndarray) -> bool:
         active = self.cluster_of[runs.curve] == self.active
-        limit = self.limits.limit(np.maximum.reduceat(t, runs.starts))
+        limit = self.limits.limit(self.curve_distance(runs, t))
         if self.cfg.limit_jitter > 0:
             limit = limit * self.jitter[runs.curve]
         changed = False
@@ -247,6 +306,15 @@ class CloudGrowth:
             s0 = int(runs.starts[r])
             changed |= self._split(s0, s0 + int(runs.count[r]), runs.arc)
         return changed
+
+    def curve_distance(self, runs: Runs, t: np.ndarray) -> np.ndarray:
+        """Each curve's travelled distance (section 3.5.1): the biggest distance travelled by any of
+        its snaxels; with ``curve_distance = "inherit"`` at least the distance of the curve it broke
+        from (a piece of a curve that has travelled into a table row is in that row)."""
+        own = np.maximum.reduceat(t, runs.starts)
+        if self.cfg.curve_distance == "inherit":
+            own = np.maximum(own, self.t_curve[runs.curve])
+        return own
 
     def _merge_short(self, runs: Runs) -> bool:
         """One pass of curve merges (A12: random neighbour of the same, active cluster)."""
@@ -276,11 +344,13 @@ class CloudGrowth:
         work = [(s0, e0)]
         did = False
         base = arc[s0:e0] - arc[s0]
+        inherit = cfg.curve_distance == "inherit"
         while work:
             a, b = work.pop()
             loc = base[a - s0:b - s0] - base[a - s0]
             length = float(loc[-1])
-            if length <= float(self.limits.limit(t[a:b].max())) * self.jitter[snake.ints[a, CURVE]] or b - a < 4:
+            dist = max(float(t[a:b].max()), float(self.t_curve[snake.ints[a, CURVE]]) if inherit else 0.0)
+            if length <= float(self.limits.limit(dist)) * self.jitter[snake.ints[a, CURVE]] or b - a < 4:
                 continue
             # piece 1 = a..i, piece 2 = i+1..b-1, >= 2 snaxels and >= c_min long each (A7)
             i = np.arange(1, b - a - 2)
@@ -290,8 +360,9 @@ class CloudGrowth:
                 continue
             cut = a + int(cand[int(self.rng_split.integers(len(cand)))])
             cl = int(self.cluster_of[snake.ints[a, CURVE]])
-            snake.ints[a:cut + 1, CURVE] = self._new_curve(cl)
-            snake.ints[cut + 1:b, CURVE] = self._new_curve(cl)
+            carry = dist if inherit else 0.0
+            snake.ints[a:cut + 1, CURVE] = self._new_curve(cl, inherit=carry)
+            snake.ints[cut + 1:b, CURVE] = self._new_curve(cl, inherit=carry)
             self.stats.splits += 1
             did = True
             work.append((a, cut + 1))
@@ -321,6 +392,9 @@ class CloudGrowth:
             bv = base_speed(runs.s, runs.s[runs.starts], runs.length, self.vb[runs.curve], runs.perimeter)
             v = bv + lv if cfg.base == "sum" else blend(bv, lv, effect_coefficient(t, cfg.r), cfg.w_s)
         moving = (self.cluster_of[curve] == self.active) & ~snake.blocked[snake.ints[:, V]]
+        idx, cap = self._heading_out()
+        if len(idx):      # heading out of the domain: move until the boundary line, then stop
+            moving[idx] = (self.cluster_of[curve[idx]] == self.active) & (snake.flts[idx, POS] < cap)
         return np.where(moving, v, 0.0)
 
     # -- one Euler step ---------------------------------------------------------------------
@@ -347,6 +421,7 @@ class CloudGrowth:
         f[:, POS] += adv
         if self.phase == "grow":
             f[:, T] += adv
+        self._clamp_to_boundary(moved=True)
         dead = snake.collide() if snake.head_on else None
         if dead is not None:
             f, v, pos_old = snake.flts, v[~dead], pos_old[~dead]
@@ -368,6 +443,7 @@ class CloudGrowth:
                 if p >= 0:
                     snake.birth(p, carry)
             self.normalise()
+            self._clamp_to_boundary(moved=False)
         self.stats.steps += 1
         if self.phase == "sketch":
             self._sketch_control()
@@ -448,6 +524,7 @@ class CloudGrowth:
         t0 = float(self.rng_cluster.uniform(cfg.t_min, cfg.t_max))
         s0 = int(runs.starts[r])
         snake.flts[s0:s0 + int(runs.count[r]), T] = t0
+        self.t_curve[cid] = t0
         self.g = float(self.rng_cluster.uniform(cfg.g_min, cfg.g_max))
         self.cluster_start = self.stats.steps
         self.best_t, self.best_step = t0, self.stats.steps
@@ -508,8 +585,39 @@ class CloudGrowth:
             "area": signed_area(xy), "perimeter": runs.perimeter,
             "bbox": [float(xy[:, 0].min()), float(xy[:, 1].min()), float(xy[:, 0].max()), float(xy[:, 1].max())],
             **shape_statistics(xy),
+            **self.boundary_cut(runs.perimeter),
+            **bump_statistics(xy, float(self.topo.min_edge), 4.0 * float(self.limits.limits[-1])),
             **self.raster_history(),
         }
+
+    def boundary_cut(self, perimeter: float) -> dict:
+        """The straight cut where the growth met the domain margin or the condensation level
+        (Figure 3.22): ``cut_length`` is the outline length of the longest run of consecutive
+        snaxels stopped on one boundary line (0: the growth never reached one), ``cut_snaxels``
+        how many snaxels sit on a boundary line."""
+        snake = self.snake
+        n = len(snake)
+        idx = np.flatnonzero(snake.blocked[snake.ints[:, V]])
+        cap, which = self.stop_lines(idx)
+        line = np.full(n, -1, np.int64)
+        on = (which >= 0) & (snake.flts[idx, POS] >= cap)
+        line[idx[on]] = which[on]
+        xy = snake.xy()
+        nxt = np.roll(np.arange(n), -1)
+        seg = np.hypot(*(xy[nxt] - xy).T)
+        along = (line >= 0) & (line == line[nxt])        # segment i -> i+1 lies on one boundary line
+        best = 0.0
+        if along.all():
+            best = perimeter
+        elif along.any():
+            k = int(np.flatnonzero(~along)[0])           # walk from a segment off the line: no run wraps
+            a = np.roll(along, -k)
+            w = np.roll(seg, -k)
+            cum = np.concatenate([[0.0], np.cumsum(np.where(a, w, 0.0))])
+            starts = np.flatnonzero(a & ~np.roll(a, 1))
+            ends = np.flatnonzero(a & ~np.roll(a, -1)) + 1
+            best = float((cum[ends] - cum[starts]).max())
+        return {"cut_length": round(best, 3), "cut_snaxels": int(on.sum())}
 
     def raster_history(self) -> dict:
         """Area and perimeter of every recorded contour at a fixed pixel, the Poisson radius

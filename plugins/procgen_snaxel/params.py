@@ -42,6 +42,12 @@ class GrowthParams(RuleBase):
     limit_jitter: float = param(0.0, ge=0.0, le=1.0,
                                 doc="each curve's table limit times exp(u), u uniform in [-limit_jitter, "
                                     "limit_jitter] per curve: bumps and fringes of varied sizes (0: the thesis)")
+    curve_distance: str = param("inherit", choices=("inherit", "own"),
+                                doc="a curve's travelled distance for the length-limits table (section 3.5.1): "
+                                    "inherit (the biggest distance any of its snaxels travelled, never less than "
+                                    "that of the curve it broke from: only a cluster reset sets it back) or own "
+                                    "(its snaxels' only: the slow piece of a broken curve drops back to an earlier "
+                                    "row and stays a long smooth arc)")
     t_min: float = param(0.0, ge=0.0, units="length", doc="cluster reset distance, lower end")
     t_max: float = param(150.0, ge=0.0, units="length", doc="cluster reset distance, upper end")
     g_min: float = param(240.0, gt=0.0, units="length", doc="cluster allowed growth, lower end")
