@@ -8,10 +8,11 @@ import sys
 import re
 import textwrap
 import traceback
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
-from .errors import ProcgenError, RecipeError, printable
+from .errors import ProcgenError, RecipeError, printable, shown
 
 if TYPE_CHECKING:
     from .recipes import Recipe
@@ -118,6 +119,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
+    with warnings.catch_warnings():      # restores the warning display when main returns
+        if not args.debug:
+            warnings.showwarning = show_warning
+        return _main(args, parser)
+
+
+def show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                 file: object = None, line: str | None = None) -> None:
+    """A warning (ours, a plugin's or a library's) as one line ``procgen: warning: ...``: its
+    text only, never the warning's class or the file and line that raised it (an installed
+    library's site-packages path); ``--debug`` keeps Python's own display."""
+    print(f"procgen: warning: {_one_line(str(message))}", file=sys.stderr)
+
+
+def _main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         return _dispatch(args, parser)
     except ProcgenError as exc:
@@ -141,8 +157,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _one_line(text: str) -> str:
-    """``text`` on one line, control characters (terminal escapes) shown as ``?``."""
-    return printable(" ".join(text.split()))
+    """``text`` on one line, control characters (terminal escapes) shown as ``?`` and installed
+    packages' files named from their package (:func:`procgen.errors.shown`)."""
+    return shown(" ".join(text.split()))
 
 
 def default_out(name: str, root: Path = Path("out")) -> Path:

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import fnmatch
 import json
+import re
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .errors import RecipeError
+from .errors import RecipeError, printable
 from .jobs import Job, JobResult, clean_stale_temps, run_jobs
 from .recipes import find_recipe, list_recipes, parse_toml, rules_missing
 from .site import write_site
@@ -81,6 +82,10 @@ class GalleryReport:
         return "\n".join(lines)
 
 
+#: an entry's id: a folder name inside the gallery's output folder, never a path out of it
+_SLUG = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,127}")
+
+
 def _entry_from(raw: Any, where: str, index: int) -> Entry:
     if not isinstance(raw, dict):
         raise RecipeError(f"{where}: each [[entry]] must be a table")
@@ -102,6 +107,9 @@ def _entry_from(raw: Any, where: str, index: int) -> Entry:
                                                for v in thesis.values()):
         raise RecipeError(f"{where}: thesis must be a table of REPORT KEY = the thesis's number")
     slug = raw.get("id") or raw["recipe"].replace("/", "-")
+    if not (isinstance(slug, str) and _SLUG.fullmatch(slug)):     # the entry's folder under the gallery's
+        raise RecipeError(f"{where}: id {printable(repr(slug))[:80]} must be a plain name (letters, digits, "
+                          "'_', '.', '-'; no folders), the entry's folder inside the gallery")
     return Entry(raw["recipe"], list(seeds), str(raw.get("title", raw["recipe"])), str(raw.get("figure", "")),
                  str(raw.get("caption", "")), dict(raw.get("quick", {})), dict(raw.get("set", {})), slug, where,
                  {str(k): float(v) for k, v in thesis.items()}, str(raw.get("thesis_caption", "")),

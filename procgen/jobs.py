@@ -28,13 +28,14 @@ import shutil
 import sys
 import time
 import traceback
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .accel import share_cores
-from .errors import MissingExtra, ProcgenError, RecipeError, printable
+from .errors import MissingExtra, ProcgenError, RecipeError, printable, shown
 from .exchange.write import STAGING_PREFIX, write_folder
 from .recipes import RESERVED_FILES
 
@@ -94,11 +95,11 @@ def job_hash(recipe_data: dict[str, Any], seed: int, versions: dict[str, str]) -
 
 def _failed(job: Job, t0: float, exc: BaseException) -> JobResult:
     if isinstance(exc, ProcgenError):
-        error = " ".join(str(exc).split())
+        error = shown(" ".join(str(exc).split()))
     else:
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
-        error = f"{type(exc).__name__}: {' '.join(str(exc).split())}{where}"
+        error = shown(f"{type(exc).__name__}: {' '.join(str(exc).split())}{where}")
     status = "unavailable" if isinstance(exc, MissingExtra) else "failed"
     return JobResult(job.key, job.seed, status, time.perf_counter() - t0, error=error)
 
@@ -143,28 +144,43 @@ def _worker_host() -> "PluginHost":
 def compute_job(job: Job, host: "PluginHost | None" = None) -> JobOutput:
     """Render a planned job in memory and return its files' bytes. Runs on a worker.
 
-    Writes nothing (a worker needs no disk); any error becomes a "failed" result.
+    Writes nothing (a worker needs no disk); any error becomes a "failed" result, and a warning
+    one line naming the run.
     """
+    t0 = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = functools.partial(_show_warning, job)
+            return _compute(job, host, t0)
+    except Exception as exc:  # one broken job must not stop the batch
+        return JobOutput(_failed(job, t0, exc))
+
+
+def _show_warning(job: Job, message: Warning | str, *_: Any, **__: Any) -> None:
+    """A warning raised in a job as one line naming the run: its text, never the warning's class
+    or the file that raised it (a library's site-packages path)."""
+    sys.stderr.write(f"procgen: warning: {printable(job.key)}: {shown(' '.join(str(message).split()))}\n")
+    sys.stderr.flush()      # one write: lines of parallel workers never interleave
+
+
+def _compute(job: Job, host: "PluginHost | None", t0: float) -> JobOutput:
+    """``compute_job``'s work; raises what the job raises."""
     from .recipes import check_recipe
     from .runner import render
 
-    t0 = time.perf_counter()
-    try:
-        host = host or _worker_host()
-        versions = host.versions()
-        if versions != job.versions:
-            diff = sorted(k for k in {*versions, *job.versions} if versions.get(k) != job.versions.get(k))
-            raise RecipeError("this worker's packages differ from the client's ("
-                              + ", ".join(f"{k}: worker {versions.get(k, 'missing')}, client "
-                                          f"{job.versions.get(k, 'missing')}" for k in diff)
-                              + "); install the same procgen and plugins on every worker")
-        recipe = check_recipe(job.data, host, job.source, None if job.base_dir is None else Path(job.base_dir))
-        result, files = render(recipe, host, seed=job.seed, progress=False)
-        reports = json.loads(json.dumps(result.state.reports, default=str))
-        return JobOutput(JobResult(job.key, job.seed, "done", time.perf_counter() - t0,
-                                   files=sorted(files), reports=reports), files)
-    except Exception as exc:  # one broken job must not stop the batch
-        return JobOutput(_failed(job, t0, exc))
+    host = host or _worker_host()
+    versions = host.versions()
+    if versions != job.versions:
+        diff = sorted(k for k in {*versions, *job.versions} if versions.get(k) != job.versions.get(k))
+        raise RecipeError("this worker's packages differ from the client's ("
+                          + ", ".join(f"{k}: worker {versions.get(k, 'missing')}, client "
+                                      f"{job.versions.get(k, 'missing')}" for k in diff)
+                          + "); install the same procgen and plugins on every worker")
+    recipe = check_recipe(job.data, host, job.source, None if job.base_dir is None else Path(job.base_dir))
+    result, files = render(recipe, host, seed=job.seed, progress=False)
+    reports = json.loads(json.dumps(result.state.reports, default=str))
+    return JobOutput(JobResult(job.key, job.seed, "done", time.perf_counter() - t0,
+                               files=sorted(files), reports=reports), files)
 
 
 def commit(job: Job, out: JobOutput) -> None:

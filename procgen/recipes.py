@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import inspect
 import math
+import os
 import re
 import tomllib
 import typing
@@ -110,6 +111,8 @@ def find_recipe(ref: str | Path, host: "PluginHost") -> Path:
     known = list_recipes(host)
     if name in known:
         return known[name]
+    if os.path.lexists(p):      # a folder, a FIFO, a device, a dangling link: read_toml says which
+        return p
     raise RecipeError(f"{ref}: no such recipe file or built-in recipe{did_you_mean(name, known)}")
 
 
@@ -134,15 +137,18 @@ def rules_missing(path: Path, host: "PluginHost") -> list[str]:
 
 def read_toml(path: Path) -> dict[str, Any]:
     """Read and parse a recipe file: a regular file of at most MAX_RECIPE_BYTES, UTF-8."""
-    import os
     import stat
 
     try:
         with open(path, "rb", opener=lambda p, flags: os.open(p, flags | os.O_NONBLOCK)) as fh:
             mode = os.fstat(fh.fileno()).st_mode
             if not stat.S_ISREG(mode):
-                raise RecipeError(f"{path}: not a regular file (a recipe is a .toml file)")
+                what = ("a folder" if stat.S_ISDIR(mode) else "a named pipe (FIFO)" if stat.S_ISFIFO(mode)
+                        else "a device or socket")
+                raise RecipeError(f"{path}: is {what}, not a regular file (a recipe is a .toml file)")
             blob = fh.read(MAX_RECIPE_BYTES + 1)
+    except IsADirectoryError:
+        raise RecipeError(f"{path}: is a folder, not a regular file (a recipe is a .toml file)") from None
     except OSError as exc:
         raise RecipeError(f"{path}: cannot read ({exc.strerror or 'I/O error'})") from None
     if len(blob) > MAX_RECIPE_BYTES:

@@ -91,7 +91,9 @@ def plan(grids: list[str], seeds: list[int]) -> list[SweepRun]:
                               f"({MAX_GRID_POINTS:,} grid points, {MAX_RUNS:,} runs)")
     runs = []
     for combo in itertools.product(*[[(k, v) for v in vals] for k, vals in axes]):
-        label = "_".join(f"{k.rsplit('.', 1)[-1]}-{re.sub(r'[^A-Za-z0-9.]+', '', v)}" for k, v in combo) or "base"
+        # a folder name, never a path: only letters, digits and dots of the key and value
+        label = "_".join(f"{re.sub(r'[^A-Za-z0-9]+', '', k.rsplit('.', 1)[-1])}-{re.sub(r'[^A-Za-z0-9.]+', '', v)}"
+                         for k, v in combo).lstrip(".") or "base"
         for seed in seeds:
             runs.append(SweepRun(f"{label}/seed-{seed}", [f"{k}={v}" for k, v in combo], dict(combo), seed))
     return runs

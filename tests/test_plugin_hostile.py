@@ -214,3 +214,22 @@ def procgen_recipe_dirs():
     assert re.search(r"^file: .*(rules|procgen/builtin/recipes)/demo/basics\.toml$", r.stdout, re.M), r.stdout
     r = cli("exporters")
     assert r.returncode == 0 and "fake" not in r.stdout
+
+
+@pytest.mark.parametrize("slug", ["../../escape", "/tmp/abs", "a/b", ".hidden", "..", "a\\u001b[2J"])
+def test_a_gallery_entry_id_cannot_name_a_folder_outside_the_gallery(slug, site):
+    from procgen.errors import RecipeError
+    from procgen.gallery import load_gallery
+
+    (site / "evil_gallery.toml").write_text(f'[[entry]]\nid = "{slug}"\nrecipe = "demo/basics"\nseeds = [1]\n')
+    install(site, "evil-gallery", {"evilgal": "evil_gal"}, {"evil_gal": '''
+        import pathlib
+        import procgen
+
+        @procgen.hookimpl
+        def procgen_gallery_lists():
+            return [pathlib.Path(__file__).parent / "evil_gallery.toml"]
+        '''})
+    host = get_plugin_manager()
+    with pytest.raises(RecipeError, match=r"^evil_gallery.toml: entry\[0\]: id .* must be a plain name"):
+        load_gallery(host)

@@ -117,6 +117,10 @@ def read_mesh(path: Path) -> Any:
         raise InputError(f"{name}: not a mesh file type procgen reads ({', '.join(MESH_SUFFIXES)})")
     data = read_input(path, "mesh", name)
     mesh_references(path, data)
+    if path.suffix.lower() in (".obj", ".off"):
+        # text formats: bytes that are not UTF-8 (a Latin-1 comment) would send trimesh guessing
+        # the encoding with an optional module; they only ever sit in names and comments
+        data = data.decode("utf-8", "replace").encode("utf-8")
     resolver = _bounded_resolver(path)
     try:
         with warnings.catch_warnings():      # trimesh warns about materials it skips

@@ -156,6 +156,12 @@ def _prescan(data: bytes, name: str) -> None:
         line, col = getattr(exc, "position", (0, 0))
         raise InputError(f"{name}: not a readable SVG file (not well-formed XML at line {line}, "
                          f"column {col})") from None
+    except (LookupError, ValueError) as exc:    # the XML parser: an unknown or multi-byte encoding
+        if not isinstance(exc, LookupError) and "encoding" not in str(exc):
+            raise
+        declared = re.match(rb"\s*<\?xml[^>]*?encoding\s*=\s*[\"']([^\"']{0,40})", data)
+        what = f"its encoding {printable(declared[1].decode('ascii', 'replace'))!r}" if declared else "its text encoding"
+        raise InputError(f"{name}: not a readable SVG file ({what} is not one procgen reads; save it as UTF-8)") from None
     if not all_uses:
         return
     expanded = _expand(own, uses, name)
