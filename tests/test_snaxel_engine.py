@@ -203,7 +203,14 @@ def test_margin_stops_growth(topo):
     visited = g.snake.state == 1
     assert pts[visited, 1].min() >= 10.0 and pts[visited, 1].max() <= 150.0
     xy = g.snake.xy()
-    assert xy[:, 1].min() < 12.0      # the front did reach the margin: the flat cut of Fig 3.22
+    # no snaxel crosses the margin (digest property 21), and the front stops on the margin line
+    # itself: the straight cut of Fig 3.22 ("the snaxels are stopped when they reach the boundaries")
+    x0, y0 = g.bounds[0] + 10.0, g.bounds[1] + 10.0   # the mesh's box (no bounds given) minus the margin
+    assert xy[:, 1].min() >= y0 - 1e-9 and xy[:, 0].min() >= x0 - 1e-9
+    on = np.abs(xy[:, 1] - y0) <= 1e-9
+    assert on.sum() >= 5 and g.report()["cut_snaxels"] >= on.sum()
+    # heading-out snaxels never arrive and their speed is 0 once on the line
+    assert np.all(g.speeds(g.runs())[on] == 0.0)
 
 
 def test_same_seed_same_cloud_other_seed_other_cloud(topo):
