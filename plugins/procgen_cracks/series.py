@@ -117,6 +117,7 @@ class PeelConvergence(RuleBase):
     default_iterations: ClassVar[int] = 1
     fields: ClassVar[tuple[FieldSpec, ...]] = (
         FieldSpec("peel__level", "{cells}", "cell", "in", doc="cells from the crack border"),
+        FieldSpec("layers__thickness", "{cells}", "cell", "in", units="length", doc="thickness per layer"),
         FieldSpec("series__line", "{series}", "line", "out", dtype="int64", doc="0 converged %"),)
     example: ClassVar[tuple[dict, ...]] = (
         {"rule": "mesh.primitive", "params": {"shape": "cube", "subdivisions": 0}},
@@ -128,16 +129,20 @@ class PeelConvergence(RuleBase):
     )
     cells: str = param("cells", doc="SurfaceCells domain peeled by cracks.peel")
     series: str = param("peel_convergence", doc="name of the Polylines series to create")
+    layer: str = param("", doc="material name of the peeling layer ('' = the top layer), as cracks.peel")
     target: float = param(0.999, gt=0.0, le=1.0, doc="share whose pass count is reported (thesis 0.999)")
 
     def step(self, state: State) -> bool:
         dom = state.get(self.cells)
         if "peel__level" not in dom:
             raise InputError(f"{self.name}: {self.cells!r} has no peel__level (run cracks.peel first)")
+        from .peel import layer_index
+
         level = np.asarray(dom["peel__level"]).reshape(-1)
-        counted = level >= -1
-        if "peel__group" in dom:                      # the layer's cells: cracked, grouped or unreached
-            counted = (level >= 0) | (np.asarray(dom["peel__group"]).reshape(-1) >= -1)
+        # the peeling layer's cells: those that reached a level, and those that still hold the
+        # layer (a group no pass reaches counts against the convergence, a bare cell does not)
+        thick = np.asarray(dom["layers__thickness"], float)[:, layer_index(dom, self.layer, self.name)]
+        counted = (level >= 0) | (thick > 0)
         if hasattr(dom, "alive"):
             counted &= np.asarray(dom.alive(), bool)
         curve = convergence_curve(level, counted)
