@@ -208,3 +208,15 @@ def test_periodic_surface_refuses_a_tilt_or_a_mountain(host, tmp_path):
                         f'params = {{ nx = 8, ny = 8, periodic = true, {bad} }}\n')
         with pytest.raises(RecipeError, match="tile"):
             load_recipe(path, host)
+
+
+@pytest.mark.parametrize("periodic", [True, False])
+def test_weak_map_regrouping_wraps_on_a_torus(periodic):
+    """The corrosion weak/strong map (plate D-1's regrouped random map) tiles on a periodic grid."""
+    from procgen_water.weak_map import weakness_score
+    score = weakness_score((96, 128), np.random.default_rng(1), regroup="cubic", radius=8.0, periodic=periodic)
+    rep = seam_report(score)
+    if periodic:
+        assert max(abs(v) for v in rep.values()) < 4.0, rep
+    else:
+        assert min(rep.values()) > 5.0, rep

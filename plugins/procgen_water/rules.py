@@ -273,7 +273,7 @@ class WeakMap(RuleBase):
         trace = np.asarray(g[self.trace_field], float) if self.trace_field else None
         score = weakness_score(g.shape, state.rng(), regroup=self.regroup, radius=self.radius,
                                height=np.asarray(g["surface__height"]), altitude_weight=self.altitude_weight,
-                               trace=trace, trace_weight=self.trace_weight)
+                               trace=trace, trace_weight=self.trace_weight, periodic=g.periodic)
         g.add_field("corrosion__weak_score", score, at="cell", units="1", doc="weakness (1 = weakest)")
         g.add_field("corrosion__weak", weak_cells(score, self.weak_fraction).astype(float), at="cell",
                     units="1", doc="1 = weak ('wet') cell, 0 = strong")

@@ -33,8 +33,9 @@ def regroup_kernel(power: int, radius: float) -> np.ndarray:
 def weakness_score(shape: tuple[int, int], rng: np.random.Generator, *, regroup: str = "linear",
                    radius: float = 6.0, height: np.ndarray | None = None,
                    altitude_weight: float = 0.0, trace: np.ndarray | None = None,
-                   trace_weight: float = 0.0) -> np.ndarray:
-    """Grey weak/strong map in (0, 1) (1 = weakest), ranks so quantiles are exact."""
+                   trace_weight: float = 0.0, periodic: bool = False) -> np.ndarray:
+    """Grey weak/strong map in (0, 1) (1 = weakest), ranks so quantiles are exact; on a
+    ``periodic`` grid the regrouping wraps round the edges (the map tiles)."""
     if regroup not in REGROUP_POWERS:
         raise InputError(f"weak map: regroup {regroup!r} not one of {', '.join(REGROUP_POWERS)}")
     score = rng.random(shape)
@@ -42,7 +43,7 @@ def weakness_score(shape: tuple[int, int], rng: np.random.Generator, *, regroup:
     if p > 0:
         if radius < 1:
             raise InputError(f"weak map: radius must be >= 1 cell, got {radius}")
-        score = ndimage.convolve(score, regroup_kernel(p, radius), mode="reflect")
+        score = ndimage.convolve(score, regroup_kernel(p, radius), mode="wrap" if periodic else "reflect")
     score = rank_normalise(score)
     if height is not None and altitude_weight > 0:
         score = (1 - altitude_weight) * score + altitude_weight * (1.0 - rank_normalise(height))
