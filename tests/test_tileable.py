@@ -220,3 +220,26 @@ def test_weak_map_regrouping_wraps_on_a_torus(periodic):
         assert max(abs(v) for v in rep.values()) < 4.0, rep
     else:
         assert min(rep.values()) > 5.0, rep
+
+
+def test_a_surface_laid_on_a_periodic_grid_is_periodic(host, tmp_path):
+    """water.surface on grid.noise's torus keeps the torus (its drops wrap, its maps tile)."""
+    text = """
+[recipe]
+name = "chain"
+seed = 2
+[[steps]]
+rule = "grid.noise"
+params = { nx = 40, ny = 32, periodic = true, amplitude = 3.0 }
+[[steps]]
+rule = "water.surface"
+params = { base = "grid", layers = [ { preset = "stone", thickness = 1.0, noise = 0.2 } ] }
+[[steps]]
+rule = "water.drops"
+iterations = 5
+params = { drops = 200 }
+"""
+    _, res = run_recipe(text, host, tmp_path, "chain")
+    g = res.state.get("terrain", Grid)
+    assert g.periodic and float(np.asarray(g["water__drained"]).sum()) == 0.0
+    assert max(abs(v) for v in seam_report(np.asarray(g["surface__height"])).values()) < 4.0
