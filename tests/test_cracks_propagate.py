@@ -181,7 +181,9 @@ def _split_cracks(sc, layer: int = -1) -> tuple[int, int, int]:
 
 def test_every_crack_is_8_connected_on_the_tetrahedron(plate_5_10):
     n_cracks, split, multi = _split_cracks(plate_5_10[0].domains["cells"])
-    assert n_cracks > 50 and multi > 5                 # many cracks cross facet edges
+    # mud's release reaches the slivers cut by the facet edges, so no cracks are born along
+    # them: about 20 cracks at this size, ten of them crossing facet edges
+    assert n_cracks > 15 and multi > 5
     assert split == 0
 
 

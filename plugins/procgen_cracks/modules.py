@@ -19,7 +19,7 @@ from procgen.ca.subcell import AXIS_ANGLES, across_share, wrap_angle
 from procgen_surface.geometry import edge_half_planes
 from procgen_surface.neighbours import edge_frames, edge_topology
 
-from .stress import FaceSampler
+from .stress import FaceSampler, frame_weights
 
 _STATE = ("layer", "face", "xy", "ang", "K", "R", "crack", "ctype", "line", "cell", "prev",
           "anchor", "seg", "turn", "steps")
@@ -47,10 +47,86 @@ class FacetEdges:
         self.u_f = fr.u_f.reshape(m, 3, 2)
         self.u_g = fr.u_g.reshape(m, 3, 2)
         self.nrm, self.off = edge_half_planes(layout.frames.corners2d)
+        self.tol = 1e-9 * float(sc.size)                 # on an edge counts as on the facet
 
     def outside(self, face: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """(m, 3) signed distances inside each edge's half-plane (negative: beyond edge k)."""
         return np.einsum("mkd,md->mk", self.nrm[face], xy) - self.off[face]
+
+    def walk(self, face: np.ndarray, xy: np.ndarray, disp: np.ndarray, points: tuple = (),
+             dirs: tuple = (), max_hops: int = 256) -> tuple:
+        """Move points (face, xy) by a 2-D displacement in their facet's frame, straight over
+        the surface: a step leaving the facet is unfolded across the edge it leaves by into
+        the neighbour's frame, as many edges as it takes (a geodesic on the unfolded strip).
+
+        Why: the 2-D frames are per facet, so a point some cells away across one or more
+        facet edges (a release band, a look ahead) only has a meaning once unfolded edge by
+        edge; without it the band stops at the first edge and small facets (a few cells each)
+        see no neighbourhood at all.  ``points``/``dirs``: further 2-D points and vectors in
+        the start frame, carried along (mapped by every unfolding) into the end frame.
+        Returns (face, xy, points, dirs); face -1 where the walk left the surface (a border
+        edge) or took more than ``max_hops`` edges.
+        """
+        face, p = face.copy(), np.array(xy, float, copy=True)
+        rest = np.array(disp, float, copy=True)
+        pts = [np.array(a, float, copy=True) for a in points]
+        vec = [np.array(a, float, copy=True) for a in dirs]
+        live = np.arange(len(face))
+        for _ in range(max_hops):
+            if len(live) == 0:
+                break
+            f, pp = face[live], p[live]
+            q = pp + rest[live]
+            dq = self.outside(f, q)
+            out = (dq < -self.tol).any(axis=1)
+            p[live[~out]] = q[~out]
+            rest[live[~out]] = 0.0
+            live, f, pp, q, dq = live[out], f[out], pp[out], q[out], dq[out]
+            if len(live) == 0:
+                break
+            dp = np.maximum(self.outside(f, pp), 0.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.where(dq < -self.tol, np.clip(dp / (dp - dq), 0.0, 1.0), np.inf)
+            k = np.argmin(t, axis=1)
+            tk = t[np.arange(len(live)), k]
+            e = pp + tk[:, None] * (q - pp)
+            g = self.nb[f, k]
+            gone = g < 0
+            face[live[gone]] = -1
+            live, f, k, g, e, q = live[~gone], f[~gone], k[~gone], g[~gone], e[~gone], q[~gone]
+            mat, uf, ug = self.mat[f, k], self.u_f[f, k], self.u_g[f, k]
+            face[live] = g
+            p[live] = ug + np.einsum("mij,mj->mi", mat, e - uf)
+            rest[live] = np.einsum("mij,mj->mi", mat, q - e)
+            for a in pts:
+                a[live] = ug + np.einsum("mij,mj->mi", mat, a[live] - uf)
+            for a in vec:
+                a[live] = np.einsum("mij,mj->mi", mat, a[live])
+        face[live] = -1
+        return face, p, tuple(pts), tuple(vec)
+
+
+def _centroids(layout: Any) -> np.ndarray:
+    """(n, 2) centroid of each cell's part of its facet, in the facet's frame.
+
+    A cell cut by a facet edge (PART-IN) keeps its grid square's centre, which may lie off the
+    facet, up to half a cell from the cell's material: the release band tests centroids, so
+    that such cells are released where they are.  Whole cells: the centre itself.
+    """
+    out = np.array(layout.center2d, dtype=float, copy=True)
+    cut = np.nonzero(layout.area < (1.0 - 1e-9) * layout.size ** 2)[0]
+    if len(cut):
+        poly, cnt = layout.cell_polygons(cut)
+        slot = np.arange(poly.shape[1])
+        nxt = np.where(slot[None, :] + 1 < cnt[:, None], slot[None, :] + 1, 0)
+        pn = np.take_along_axis(poly, nxt[..., None], axis=1)
+        cr = np.where(slot[None, :] < cnt[:, None],
+                      poly[..., 0] * pn[..., 1] - pn[..., 0] * poly[..., 1], 0.0)
+        a = cr.sum(axis=1)
+        ok = np.abs(a) > 1e-18 * layout.size ** 2
+        c = np.einsum("ks,ksd->kd", cr, poly + pn) / np.where(ok, 3.0 * a, 1.0)[:, None]
+        out[cut[ok]] = c[ok]
+    return out
 
 
 class Modules:
@@ -68,6 +144,8 @@ class Modules:
         self.edges = FacetEdges(sc)
         self.slots = slots
         self.center2d = np.asarray(sc.center2d)
+        self.centroid2d = _centroids(sc.layout)
+        self.cut = np.asarray(sc.layout.area) < (1.0 - 1e-9) * self.size ** 2
         self.cell_face = np.asarray(sc.face)
         self.cracked = np.zeros((self.n, self.n_layers), bool)
         self.width = np.zeros((self.n, self.n_layers))
@@ -170,7 +248,7 @@ class Modules:
         hvec = np.column_stack([np.cos(ang), np.sin(ang)])
         # 1. the spectrum ahead of the head (its own release band covers the head's cells);
         # where the point ahead is off the facet, the spectrum at the head
-        spec, found = self._sample(lay, face, xy + r.lookahead * s * hvec)
+        spec, found = self._sample_ahead(lay, face, xy, r.lookahead * s * hvec)
         if not found.all():
             here, _ = self._sample(lay, face, xy)
             spec = np.where(found[:, None], spec, here)
@@ -272,6 +350,22 @@ class Modules:
         vals = self.spec[np.maximum(cells, 0), lay[:, None]]          # (m, 4 cells, 4 axes)
         return np.einsum("mq,mqk->mk", w / np.where(tot > 0, tot, 1.0), vals), tot[:, 0] > 0
 
+    def _sample_ahead(self, lay: np.ndarray, face: np.ndarray, xy: np.ndarray,
+                      disp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The spectrum at ``disp`` from each head, walked over the facet edges between and
+        turned from the frame of the facet it lands on into the head's (the axes of a
+        spectrum are its facet's; the head compares them with its heading)."""
+        m = len(face)
+        e1, e2 = np.tile([1.0, 0.0], (m, 1)), np.tile([0.0, 1.0], (m, 1))
+        wf, wxy, _, (m1, m2) = self.edges.walk(face, xy, disp, dirs=(e1, e2))
+        ok = wf >= 0
+        spec, found = self._sample(lay, np.where(ok, wf, face), np.where(ok[:, None], wxy, xy))
+        moved = np.nonzero(ok & (wf != face))[0]
+        if len(moved):
+            w = frame_weights(np.stack([m1[moved], m2[moved]], axis=2))
+            spec[moved] = np.einsum("mkj,mj->mk", w, spec[moved])
+        return spec, found & ok
+
     def _bridge(self, idx: np.ndarray, cell_new: np.ndarray, lay: np.ndarray) -> np.ndarray:
         """Keep every crack one 8-connected set of cells in the cross-edge graph.
 
@@ -338,10 +432,9 @@ class Modules:
     def _side_stress(self, idx: np.ndarray, lay: np.ndarray, face: np.ndarray, xy: np.ndarray,
                      hvec: np.ndarray, side: float) -> np.ndarray:
         """Strongest axis of the spectrum ahead and to one side (+1 left) of CMs ``idx``."""
-        r, s = self.rule, self.size
+        r = self.rule
         nrm = np.column_stack([-hvec[idx, 1], hvec[idx, 0]]) * side
-        pt = xy[idx] + r.lookahead * s * (hvec[idx] + nrm)
-        val, found = self._sample(lay[idx], face[idx], pt)
+        val, found = self._sample_ahead(lay[idx], face[idx], xy[idx], r.lookahead * self.size * (hvec[idx] + nrm))
         return np.where(found, val.max(axis=1), np.inf)
 
     def _cross(self, face: np.ndarray, xy: np.ndarray, q: np.ndarray, ang: np.ndarray):
@@ -430,8 +523,13 @@ class Modules:
         and fall linearly (5.2.4.c); with ``release`` > 1 the across-path stress is gone in a
         band along the crack, so that what remains there runs along it and an approaching
         crack turns to meet it at about 90 degrees (plate 5.5).  (A cell whose centre projects
-        outside every step, at a sharp turn, gets none: the thesis's Figure 5.13 flaw.)  Returns
-        the stress released by each CM (0 for the others).
+        outside every step, at a sharp turn, gets none: the thesis's Figure 5.13 flaw.)  The band
+        is walked over facet edges (:meth:`FacetEdges.walk`), the step carried into each facet's
+        frame, and cells cut by a facet edge are placed at their centroids and found through
+        their neighbours: on meshes of facets a few cells wide most cells are such slivers, and
+        a band stopped at the first edge or missing the slivers left stress across the crack
+        there, from which stubs were born running along it.  Returns the stress released by
+        each CM (0 for the others).
         """
         out = np.zeros(self.n_live)
         if len(sel) == 0:
@@ -442,9 +540,11 @@ class Modules:
         seg_len = r.step_length * s
         start = cm["xy"][sel] - seg_len * h
         dist = r.release_distance
-        # every cell whose centre projects onto the step is crossed by the perpendicular
+        # every whole cell whose centre projects onto the step is crossed by the perpendicular
         # through the step's middle over a chord of at least sqrt 2 - step cells (a unit square
-        # cut at step/2 from its centre, at 45 degrees): samples spaced by less find them all
+        # cut at step/2 from its centre, at 45 degrees): samples spaced by less find them all.
+        # A cell cut by a facet edge can be a sliver the samples step over: the Moore
+        # neighbours of the cells found are tested too (below)
         mid = start + 0.5 * seg_len * h
         nrm = np.column_stack([-h[:, 1], h[:, 0]])
         gap = min(0.5, np.sqrt(2.0) - r.step_length - 0.01)
@@ -452,20 +552,33 @@ class Modules:
         off = np.arange(-half, half + 1) * (gap * s)
         pts = (mid[:, None, :] + off[None, :, None] * nrm[:, None, :]).reshape(-1, 2)
         mi = np.repeat(np.arange(len(sel)), len(off))
-        pf, pxy, hv, p0 = self._unfold_points(face[mi], pts, h[mi], start[mi])
+        # each sample walked from the head over the facet edges between, carrying the step
+        # (start point and direction) into the frame of the facet the sample lands on
+        head = cm["xy"][sel][mi]
+        pf, pxy, (p0,), (hv,) = self.edges.walk(face[mi], head, pts - head, (start[mi],), (h[mi],))
         c = np.full(len(mi), -1, np.int64)
         ok = pf >= 0
         c[ok] = self.sampler.cell_of(pf[ok], pxy[ok])
         ok = c >= 0
         ok[ok] = self.active[c[ok], lay[mi[ok]]]
         mi, c, hv, p0 = mi[ok], c[ok], hv[ok], p0[ok]
+        _, first = np.unique(mi * self.n + c, return_index=True)
+        mi, c, hv, p0 = mi[first], c[first], hv[first], p0[first]
+        mi, c, hv, p0, cen = self._with_neighbours(mi, c, hv, p0)
+        ok = self.active[c, lay[mi]]
+        mi, c, hv, p0, cen = mi[ok], c[ok], hv[ok], p0[ok], cen[ok]
         key = c * self.n_layers + lay[mi]
         _, first = np.unique(mi * (self.n * self.n_layers) + key, return_index=True)
-        mi, c, hv, p0, key = mi[first], c[first], hv[first], p0[first], key[first]
-        rel = self.center2d[c] - p0                       # in the released cell's facet frame
+        mi, c, hv, p0, key, cen = mi[first], c[first], hv[first], p0[first], key[first], cen[first]
+        rel = cen - p0                                    # in the frame the step was carried to
         t = np.einsum("md,md->m", rel, hv) / seg_len
         perp = np.abs(rel[:, 0] * hv[:, 1] - rel[:, 1] * hv[:, 0]) / s
-        band = (t >= -1e-9) & (t < 1.0 - 1e-9) & (perp < dist)       # each centre on one step
+        # each centroid on one step; a cell cut by a facet edge within half a step beyond
+        # either end too: its centroid (in a frame unfolded from the step's) can fall in the gap
+        # between two steps' spans, and a sliver left unreleased by a crack seeds a stub that
+        # runs along it (a small over-release instead: two steps may both release a sliver)
+        slack = np.where(self.cut[c], 0.5, 0.0)
+        band = (t >= -1e-9 - slack) & (t < 1.0 - 1e-9 + slack) & (perp < dist)
         mi, hv, key, perp = mi[band], hv[band], key[band], perp[band]
         share = (r.release * (1.0 - perp / dist))[:, None] * across_share(np.arctan2(hv[:, 1], hv[:, 0]))
         if r.release_of == "cell":
@@ -485,29 +598,34 @@ class Modules:
         out[sel] = np.bincount(mi, weights=part.sum(axis=1), minlength=len(sel))
         return out
 
-    def _unfold_points(self, face: np.ndarray, xy: np.ndarray, h: np.ndarray,
-                       p0: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Points off their facet, with a direction and a reference point, unfolded across
-        the edge they are most beyond into the neighbour's frame (face -1: still off)."""
-        ed = self.edges
-        face, xy, h, p0 = face.copy(), xy.copy(), h.copy(), p0.copy()
-        dq = ed.outside(face, xy)
-        off = np.nonzero(dq.min(axis=1) < 0)[0]
-        if len(off):
-            f = face[off]
-            k = np.argmin(dq[off], axis=1)
-            g = ed.nb[f, k]
-            mat, uf, ug = ed.mat[f, k], ed.u_f[f, k], ed.u_g[f, k]
-            xy[off] = ug + np.einsum("mij,mj->mi", mat, xy[off] - uf)
-            p0[off] = ug + np.einsum("mij,mj->mi", mat, p0[off] - uf)
-            h[off] = np.einsum("mij,mj->mi", mat, h[off])
-            face[off] = g
-            bad = off[g < 0]
-            good = off[g >= 0]
-            still = good[ed.outside(face[good], xy[good]).min(axis=1) < -1e-9 * self.size]
-            face[bad] = -1
-            face[still] = -1
-        return face, xy, h, p0
+    def _with_neighbours(self, mi: np.ndarray, c: np.ndarray, hv: np.ndarray,
+                         p0: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The cells found by the release samples and their Moore neighbours that a facet edge
+        cuts, each with its centroid in the frame of the sample that found it (a neighbour on
+        the next facet unfolded across their common edge): slivers the samples step over."""
+        nb = self.slots[c]                                              # (m, 8)
+        m = len(c)
+        f = self.cell_face[c]
+        cand = np.concatenate([c, nb.ravel()])
+        src = np.concatenate([np.arange(m), np.repeat(np.arange(m), 8)])
+        keep = cand >= 0
+        keep[m:] &= self.cut[np.maximum(cand[m:], 0)]      # whole cells: the samples find them
+        cand, src = cand[keep], src[keep]
+        g, fs = self.cell_face[cand], f[src]
+        cen = self.centroid2d[cand].copy()
+        other = np.nonzero(g != fs)[0]
+        if len(other):
+            ed = self.edges
+            # the edge k' of facet g whose neighbour is the finding cell's facet
+            hit = ed.nb[g[other]] == fs[other][:, None]
+            has = hit.any(axis=1)
+            k = np.argmax(hit, axis=1)
+            go, ko = g[other], k
+            cen[other] = ed.u_g[go, ko] + np.einsum("mij,mj->mi", ed.mat[go, ko], cen[other] - ed.u_f[go, ko])
+            drop = np.ones(len(cand), bool)
+            drop[other[~has]] = False
+            cand, src, cen = cand[drop], src[drop], cen[drop]
+        return mi[src], cand, hv[src], p0[src], cen
 
     # -- results ------------------------------------------------------------------------------
     def polylines(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:

@@ -21,7 +21,7 @@ from procgen.fields import check_field_name
 from . import birth as bt
 from .modules import Modules, meeting_angles
 from .series import StepLog
-from .stress import coplanar_slots, imposed_spectrum, relax, thickness_spectrum
+from .stress import coplanar_slots, facet_maps, frame_weights, imposed_spectrum, relax, thickness_spectrum
 
 CELLS = "{cells}"
 THICKNESS = "layers__thickness"
@@ -111,6 +111,14 @@ class CrackStress(RuleBase):
         active = _active(dom)
         spec = np.zeros((n, n_layers, 4))
         rng = state.rng()
+        # links between two facets: each facet's spectrum is in its own 2-D frame, so what
+        # relaxation shares over such a link is turned into the other facet's frame
+        cell_face = np.asarray(dom.face)
+        two = cell_face[graph.rows] != cell_face[graph.indices]
+        maps = facet_maps(dom.layout.frames, _unit_normals(dom), cell_face[graph.rows[two]],
+                          cell_face[graph.indices[two]])
+        weights = np.zeros((len(graph.rows), 4, 4))
+        weights[two] = frame_weights(maps)
         for li in layers:                                  # the stressed layers, each vectorised
             if self.mode == "thickness":
                 raw = thickness_spectrum(t[:, li], slots, float(dom.size), gradient=self.gradient,
@@ -119,7 +127,10 @@ class CrackStress(RuleBase):
                 raw = imposed_spectrum(n, self.percent, rng, self.jitter)
             raw = np.where(active[:, li, None], raw * self.scale, 0.0)
             link = active[graph.rows, li] & active[graph.indices, li]
-            spec[:, li] = relax(raw, graph.rows[link], graph.indices[link], self.share / 100.0, self.loops)
+            turn = (np.nonzero(two[link])[0], weights[link][two[link]])
+            if __import__('os').environ.get('NOTURN'): turn = None
+            spec[:, li] = relax(raw, graph.rows[link], graph.indices[link], self.share / 100.0, self.loops,
+                                turn)
         dom.add_field(SPECTRUM, spec, at="cell", units="1",
                       doc="tension per layer along 0, pi/4, pi/2, 3pi/4 of the facet frame")
         imax = spec[:, layers].max(axis=-1)

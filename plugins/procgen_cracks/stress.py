@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from procgen.ca.subcell import (AXIS_MINUS_SLOT, AXIS_PLUS_SLOT, AXIS_STEP, STENCIL,
+from procgen.ca.subcell import (AXIS_ANGLES, AXIS_MINUS_SLOT, AXIS_PLUS_SLOT, AXIS_STEP, STENCIL,
                                 bilinear_stencil, interpolate)
 
 
@@ -64,7 +64,52 @@ def imposed_spectrum(n: int, percent: list[float], rng: np.random.Generator | No
     return base
 
 
-def relax(spec: np.ndarray, rows: np.ndarray, cols: np.ndarray, share: float, loops: int) -> np.ndarray:
+def frame_weights(mat: np.ndarray) -> np.ndarray:
+    """(m, 4, 4) W such that ``W @ spec_B`` is a spectrum of frame B read along frame A's axes.
+
+    ``mat`` (m, 2, 2) maps frame-A vectors into frame B (a rotation, or a reflection where the
+    two facets' frames have opposite handedness).  Each spectrum lives in its own facet's 2-D
+    frame (thesis 5.2.3.a: the 4 axes of the facet's grid), so a spectrum read or shared across
+    a facet edge must be turned into the reader's frame first, or axis k of one facet is mixed
+    with axis k of its neighbour, a different direction on the surface.  Between the 4 axes
+    (period pi) the value is interpolated linearly, as the spectrum is between cells (Figure
+    5.9): each row of W sums to 1 and so does each column, so a shared amount is conserved.
+    """
+    axes = np.column_stack([np.cos(AXIS_ANGLES), np.sin(AXIS_ANGLES)])         # (4, 2)
+    v = np.einsum("mij,kj->mki", np.asarray(mat, float), axes)
+    pos = np.mod(np.arctan2(v[..., 1], v[..., 0]), np.pi) / (np.pi / 4)       # (m, 4) in [0, 4)
+    lo = np.floor(pos).astype(np.int64)
+    frac = pos - lo
+    w = np.zeros(v.shape[:2] + (4,))
+    m_i, k_i = np.meshgrid(np.arange(len(v)), np.arange(4), indexing="ij")
+    np.add.at(w, (m_i, k_i, lo % 4), 1.0 - frac)
+    np.add.at(w, (m_i, k_i, (lo + 1) % 4), frac)
+    return w
+
+
+def facet_maps(frames, normals: np.ndarray, fa: np.ndarray, fb: np.ndarray) -> np.ndarray:
+    """(m, 2, 2) maps of 2-D vectors from facet fa's frame into facet fb's, by the rotation about
+    their common edge that lays fa onto fb (unfolding; either orientation of fb's normal gives
+    the same axes up to sign, which a spectrum, of period pi, does not see)."""
+    na, nb = normals[fa], normals[fb]
+    nb = np.where((np.einsum("md,md->m", na, nb) < 0)[:, None], -nb, nb)
+    k = np.cross(na, nb)
+    c = np.einsum("md,md->m", na, nb)
+    s2 = np.einsum("md,md->m", k, k)
+
+    def rot(v: np.ndarray) -> np.ndarray:                   # Rodrigues: na -> nb about k
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f = np.where(s2 > 1e-24, (1.0 - c) / np.where(s2 > 1e-24, s2, 1.0), 0.0)
+        return v * c[:, None] + np.cross(k, v) + k * (np.einsum("md,md->m", k, v) * f)[:, None]
+
+    ex, ey = rot(frames.ex[fa]), rot(frames.ey[fa])
+    bx, by = frames.ex[fb], frames.ey[fb]
+    return np.stack([np.stack([np.einsum("md,md->m", ex, bx), np.einsum("md,md->m", ey, bx)], -1),
+                     np.stack([np.einsum("md,md->m", ex, by), np.einsum("md,md->m", ey, by)], -1)], 1)
+
+
+def relax(spec: np.ndarray, rows: np.ndarray, cols: np.ndarray, share: float, loops: int,
+          turn: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Material elasticity (thesis 5.2.3.a "Stress Relaxation", Figure 5.8), per axis.
 
     Each loop, every cell C gives to each of its n neighbours N that are weaker on that axis
@@ -74,7 +119,11 @@ def relax(spec: np.ndarray, rows: np.ndarray, cols: np.ndarray, share: float, lo
     scaled down where a cell's give-and-take coefficients would exceed 1, so every new value is
     a convex mix of old neighbouring values: the total per axis is conserved exactly, the
     maximum never rises and the minimum never falls.  ``rows``/``cols``: the directed
-    neighbour links (CSR rows and indices).
+    neighbour links (CSR rows and indices).  ``turn`` = (links, W): links joining cells of
+    two facets, and per link the :func:`frame_weights` reading the receiving cell's spectrum
+    in the giving cell's frame; what such a link carries is turned back by W's transpose
+    into the receiver's frame (conserved; the guarantee on the maximum then holds only
+    within one facet's frame, as axes are interpolated).
     """
     out = np.array(spec, dtype=float, copy=True)
     if share <= 0 or loops <= 0 or len(rows) == 0:
@@ -89,6 +138,27 @@ def relax(spec: np.ndarray, rows: np.ndarray, cols: np.ndarray, share: float, lo
     def row_sum(x: np.ndarray) -> np.ndarray:
         return np.where(has, np.add.reduceat(x, first), 0.0)
 
+    if turn is not None and len(turn[0]):
+        inv = np.empty_like(order)
+        inv[order] = np.arange(len(order))
+        t_idx, t_w = inv[np.asarray(turn[0])], np.asarray(turn[1], float)
+        n_ax = out.shape[1]
+        for _ in range(loops):                            # eL sweeps, all axes at once
+            other = out[cols]
+            other[t_idx] = np.einsum("lkm,lm->lk", t_w, other[t_idx])   # in the giver's frame
+            diff = out[rows] - other
+            low = (diff > 0).astype(float)
+            n_inf = np.stack([row_sum(low[:, k]) for k in range(n_ax)], 1)
+            a = share * low / np.maximum(n_inf, 1.0)[rows]
+            coef = np.stack([np.bincount(cols, weights=a[:, k], minlength=n) for k in range(n_ax)], 1) \
+                + np.where(n_inf > 0, share, 0.0)
+            lim = np.maximum(coef, 1.0)
+            flow = a * diff / np.maximum(lim[rows], lim[cols])
+            got = flow.copy()
+            got[t_idx] = np.einsum("lkm,lk->lm", t_w, flow[t_idx])        # back in its frame
+            out = out - np.stack([row_sum(flow[:, k]) for k in range(n_ax)], 1) \
+                + np.stack([np.bincount(cols, weights=got[:, k], minlength=n) for k in range(n_ax)], 1)
+        return out
     for _ in range(loops):                                # eL sweeps (the thesis's loop)
         for k in range(out.shape[1]):                     # 4 axes, each vectorised over links
             v = out[:, k]
