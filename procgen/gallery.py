@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from .errors import RecipeError, printable
 from .jobs import Job, JobResult, clean_stale_temps, run_jobs
-from .recipes import find_recipe, list_recipes, parse_toml, rules_missing
+from .recipes import find_recipe, list_recipes, read_toml, rules_missing
 from .site import write_site
 
 if TYPE_CHECKING:
@@ -127,12 +127,12 @@ def load_gallery(host: "PluginHost", only: list[str] | None = None, path: Path |
     """
     files = []
     for main in [path] if path else host.gallery_lists():
-        data = parse_toml(main.read_text(encoding="utf-8"), str(main))
+        data = read_toml(main)          # regular files only, bounded, one-line errors
         files.append((main, data))
         for inc in data.get("gallery", {}).get("include", []):
-            p = main.parent / inc
+            p = main.parent / str(inc)
             if p.is_file():
-                files.append((p, parse_toml(p.read_text(encoding="utf-8"), str(p))))
+                files.append((p, read_toml(p)))
     recipes = list_recipes(host)
     entries: list[Entry] = []
     seen: set[str] = set()
