@@ -320,14 +320,18 @@ def _check_exporter_options(fmt: str, options: dict[str, Any], host: "PluginHost
             raise RecipeError(f"{where}: format {fmt!r} has no option {k!r}{did_you_mean(k, allowed)}"
                               f"; options: {', '.join(allowed) or 'none'}")
     try:
-        hints = typing.get_type_hints(exporter.func)
+        hints = typing.get_type_hints(exporter.func, include_extras=True)
     except (NameError, TypeError):   # unresolvable annotations: leave the types to the exporter
         hints = {}
     for k, v in options.items():
+        hint, info = hints.get(k), ParamInfo()
+        if typing.get_origin(hint) is typing.Annotated:   # Annotated[int, ParamInfo(ge=1)]: a range
+            hint, *extras = typing.get_args(hint)
+            info = next((e for e in extras if isinstance(e, ParamInfo)), info)
         try:
-            if k in hints:
-                coerce(v, hints[k], f"option {k!r}")
-            check_range(v, ParamInfo(), f"option {k!r}")   # no option takes 2^63 or 1e300 either
+            if hint is not None:
+                coerce(v, hint, f"option {k!r}")
+            check_range(v, info, f"option {k!r}")   # no option takes 2^63 or 1e300 either
         except ValueError as exc:
             raise RecipeError(f"{where}: format {fmt!r}: {exc}") from None
 

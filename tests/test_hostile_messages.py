@@ -139,3 +139,27 @@ def test_warnings_are_one_line_naming_neither_class_nor_file(tmp_path):
     lines = cli("sweep", "r.toml", "--seeds", "1-2", "--jobs", "2", "--out", "s")     # in worker processes
     assert sorted(lines) == [f"procgen: warning: base/seed-{s}: {text}" for s in (1, 2)
                              for text in ("careful: the thing is odd", "overflow encountered in multiply")]
+
+
+def _grid_recipe(tmp_path: Path, outputs: str) -> str:
+    (tmp_path / "r.toml").write_text('[[steps]]\nrule = "grid.noise"\nparams = { nx = 8, ny = 8 }\n'
+                                     '[[steps]]\nrule = "grid.to_mesh"\nparams = { grid = "terrain", mesh = "m" }\n'
+                                     + outputs)
+    return str(tmp_path / "r.toml")
+
+
+@pytest.mark.parametrize("key", ["width", "height"])
+def test_a_preview_of_no_pixels_is_refused_at_check(key, tmp_path, capsys):
+    """An exporter option's declared range (Annotated[int, ParamInfo(ge=1)]) is checked before
+    compute; the exporter used to fail after it with a library's exception class."""
+    recipe = _grid_recipe(tmp_path, f'[[outputs]]\ndomain = "m"\nformat = "preview_png"\nfile = "p.png"\n'
+                                    f'options = {{ {key} = 0 }}\n')
+    _one_line(capsys, ["check", recipe], "outputs[0]", "preview_png", f"option '{key}': 0 is outside the allowed "
+              "range [1, inf)")
+
+
+def test_an_unknown_colour_map_is_named_short(tmp_path, capsys):
+    recipe = _grid_recipe(tmp_path, '[[outputs]]\ndomain = "terrain"\nformat = "image_png"\nfile = "a.png"\n'
+                                    f'options = {{ field = "surface__height", cmap = "{"x" * 5000}" }}\n')
+    err = _one_line(capsys, ["run", recipe, "--out", str(tmp_path / "o")], "unknown colour map 'xxx", "...'")
+    assert len(err) < 300 and "matplotlib" not in err

@@ -56,7 +56,9 @@ def to_rgb8(arr: np.ndarray, cmap: str = "terrain", vmin: float | None = None,
     try:
         cm = colormaps[cmap]
     except KeyError:
-        raise InputError(f"image: unknown colour map {cmap!r}") from None
+        shown = cmap if len(str(cmap)) <= 60 else f"{str(cmap)[:57]}..."
+        raise InputError(f"image: unknown colour map {shown!r} (a colour map name such as "
+                         "'terrain', 'viridis', 'gray')") from None
     a = a.astype(np.float64)
     lo = float(np.nanmin(a)) if vmin is None else vmin
     hi = float(np.nanmax(a)) if vmax is None else vmax

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import io
 from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 
 from ..geometry import barycentric, triangle_cross, vertex_normals
+from ..params import ParamInfo
 
 UP_AXES = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
 
@@ -197,9 +198,13 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
     return encode_png(np.clip(rgb[~hole], 0, 1), ids, size, background, provenance)
 
 
+#: an image side in pixels: an exporter option checked at ``procgen check`` (0 draws nothing)
+Pixels = Annotated[int, ParamInfo(ge=1, units="px")]
+
+
 def preview_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_field: str | None = None, uv_field: str | None = None,
-                texture_field: str | None = None, width: int = 640, height: int = 480,
+                texture_field: str | None = None, width: Pixels = 640, height: Pixels = 480,
                 azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True,
                 edges: bool = False, normals: float = 0.0) -> bytes:
     """Exporter: a TriMesh seen from a fixed camera as PNG (gallery thumbnails of any mesh).
