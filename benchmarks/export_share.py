@@ -51,7 +51,8 @@ def main() -> None:
             print(json.dumps(rep, sort_keys=True), flush=True)
             continue
         print(f"{name}: steps {rep['steps_s']:.2f} s, outputs {rep['export_s']:.2f} s "
-              f"({100 * rep['export_share']:.0f} % of the run)")
+              f"({100 * rep['export_share']:.0f} % of the run, "
+              f"{rep['export_s'] / max(rep['steps_s'], 1e-9):.2f} x the steps' time)")
         for r in rep["outputs"]:
             print(f"    {r['seconds']:8.2f} s  {r['bytes'] / 1e6:8.2f} MB  {r['format']:<14} {r['file']}")
 
