@@ -391,3 +391,49 @@ def test_cell_release_takes_a_share_of_each_cells_own_stress(host):
     assert (share > 0).sum() >= 7
     np.testing.assert_allclose(after[inside, 2], before[inside, 2] * (1 - share), atol=1e-12)
     np.testing.assert_allclose(after[:, 0], before[:, 0])             # along the path: untouched
+
+
+def test_spectra_turn_between_facet_frames_conserving_their_total():
+    """A spectrum read in a facet turned by 90 degrees has its axes swapped (0 <-> 90, 45 <->
+    135); by 30 degrees it is interpolated between the two nearest axes; every row and column of
+    the reading weights sums to 1, so what relaxation carries over a facet edge is conserved."""
+    from procgen_cracks.stress import frame_weights
+
+    def turn(deg: float, flip: bool = False) -> np.ndarray:
+        a = np.radians(deg)
+        m = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+        return m @ np.diag([1.0, -1.0]) if flip else m
+
+    w = frame_weights(np.stack([turn(90), turn(30), turn(0), turn(20, flip=True)]))
+    np.testing.assert_allclose(w[0], np.eye(4)[[2, 3, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(w[1, 0], [1 / 3, 2 / 3, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(w[2], np.eye(4), atol=1e-12)
+    np.testing.assert_allclose(w.sum(axis=2), 1.0, atol=1e-12)
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("shape", ["cube", "icosphere"])
+def test_walking_over_facet_edges_and_back_returns_to_the_start(host, shape):
+    """A point walked several cells over facet edges (unfolded edge by edge), then walked back
+    along the carried direction reversed, lands where it started; the carried frame stays
+    orthonormal (a rotation or a reflection)."""
+    from procgen_cracks.modules import FacetEdges
+    state, _ = _run(host, ({"rule": "mesh.primitive", "params": {"shape": shape}},
+                           {"rule": "surface.cells", "params": {"target_cells": 3000}}))
+    sc = state.domains["cells"]
+    ed = FacetEdges(sc)
+    rng = np.random.default_rng(0)
+    face = np.asarray(sc.face)[rng.integers(0, sc.n_cells, 300)]
+    xy = sc.layout.frames.corners2d[face].mean(axis=1)
+    ang = rng.uniform(0, 2 * np.pi, len(face))
+    disp = 12.0 * sc.size * np.column_stack([np.cos(ang), np.sin(ang)])
+    e1, e2 = np.tile([1.0, 0.0], (len(face), 1)), np.tile([0.0, 1.0], (len(face), 1))
+    f2, p2, _, (m1, m2) = ed.walk(face, xy, disp, dirs=(e1, e2))
+    assert (f2 >= 0).all() and (f2 != face).sum() > 200          # most cross some edge
+    mat = np.stack([m1, m2], axis=2)
+    np.testing.assert_allclose(np.einsum("mji,mjk->mik", mat, mat), np.broadcast_to(np.eye(2), mat.shape),
+                               atol=1e-9)
+    back = -np.einsum("mij,mj->mi", mat, disp)
+    f3, p3, _, _ = ed.walk(f2, p2, back)
+    to3 = sc.layout.frames.to_3d
+    np.testing.assert_allclose(to3(f3, p3), to3(face, xy), atol=1e-6 * sc.size)
