@@ -154,10 +154,11 @@ def cellnet_obj(domain: Any, *, stem: str, provenance: dict | None = None,
 
 
 def cellnet_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
-                color_by: str = "surface__color", splat: float = 0.8, p_sat: float = 0.5) -> bytes:
-    """Binary glTF of the coloured splats."""
+                color_by: str = "surface__color", splat: float = 0.8, p_sat: float = 0.5,
+                up: str = "z") -> bytes:
+    """Binary glTF of the coloured splats; ``up`` is the model's up axis (as for ``cellnet_png``)."""
     mesh = _splats(domain, "cellnet_glb", color_by, splat, p_sat)
-    return glb_export(mesh, stem=stem, provenance=provenance, color_field="vertex__color")
+    return glb_export(mesh, stem=stem, provenance=provenance, color_field="vertex__color", up=up)
 
 
 def cellnet_png(domain: Any, *, stem: str = "", provenance: dict | None = None,

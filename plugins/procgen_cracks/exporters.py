@@ -52,15 +52,16 @@ def crack_glb(domain: Any, *, stem: str = "", provenance: dict | None = None, la
               shadow: float = 0.7, highlight: float = 0.6, cells_per_segment: float = 4.0,
               exaggerate: float = 0.02, max_triangles: int = 1_500_000,
               light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5,
-              lift_scale: float = 1.0) -> bytes:
-    """Binary glTF of the same textured mesh (glTF metallic-roughness: colour, ORM, normal maps)."""
+              lift_scale: float = 1.0, up: str = "z") -> bytes:
+    """Binary glTF of the same textured mesh (glTF metallic-roughness: colour, ORM, normal maps);
+    ``up`` is the model's up axis (as for ``crack_png``), turned to glTF's +Y."""
     from procgen_surface.export_mesh import glb_bytes
     sc = _check(domain, "crack_glb")
     mesh, atlas = _build(sc, layer=layer, shadow=shadow, highlight=highlight,
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
                          max_triangles=max_triangles, light=light, lift_relief=lift_relief,
                          lift_rim=lift_rim, lift_scale=lift_scale)
-    return glb_bytes(mesh, atlas, provenance)
+    return glb_bytes(mesh, atlas, provenance, up=up)
 
 
 def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, layer: int = -1,

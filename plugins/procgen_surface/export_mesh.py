@@ -308,13 +308,14 @@ def obj_files(mesh: DisplacedMesh, atlas: Atlas | None, *, name: str, provenance
 
 
 def glb_bytes(mesh: DisplacedMesh, atlas: Atlas | None, provenance: dict | None = None, *,
-              normal_strength: float = 1.0) -> bytes:
-    """Binary glTF through the core exporter (textured PBR maps, or vertex colours without an atlas)."""
+              normal_strength: float = 1.0, up: str = "z") -> bytes:
+    """Binary glTF through the core exporter (textured PBR maps, or vertex colours without an atlas);
+    ``up``: the model's up axis, turned to glTF's +Y."""
     from procgen.exchange import glb_export
 
     tm = as_trimesh(mesh, atlas, normal_strength=normal_strength)
     if atlas is not None:
         maps = {k: v for k, v in _maps(tm).items() if k != "height_field"}
         return glb_export(tm, provenance=provenance, uv_field="surface__uv",
-                          texture_field="surface__texture", **maps)
-    return glb_export(tm, provenance=provenance, color_field="surface__color")
+                          texture_field="surface__texture", up=up, **maps)
+    return glb_export(tm, provenance=provenance, color_field="surface__color", up=up)

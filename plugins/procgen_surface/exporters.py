@@ -184,15 +184,16 @@ def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, textured: bool = True,
                 max_triangles: int = 1_500_000, relief: FieldName = "", relief_scale: float = 1.0,
-                relief_rim: float = 0.5, normal_strength: float = 1.0) -> bytes:
+                relief_rim: float = 0.5, normal_strength: float = 1.0, up: str = "z") -> bytes:
     """Binary glTF of the same displaced mesh: a glTF 2.0 metallic-roughness material with the
-    base colour, ORM and normal maps (vertex colours if not textured)."""
+    base colour, ORM and normal maps (vertex colours if not textured); ``up`` is the model's up
+    axis (as for ``surface_png``), turned to glTF's +Y so the file stands upright in Blender."""
     sc = _check(domain, "surface_glb")
     mesh, atlas = build_export(sc, color_by=color_by, texels=texels, cells_per_segment=cells_per_segment,
                                exaggerate=exaggerate, max_triangles=max_triangles, textured=textured,
                                relief=relief, relief_scale=relief_scale, relief_rim=relief_rim,
                                fmt="surface_glb")
-    return glb_bytes(mesh, atlas, provenance, normal_strength=normal_strength)
+    return glb_bytes(mesh, atlas, provenance, normal_strength=normal_strength, up=up)
 
 
 def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,

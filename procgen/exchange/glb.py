@@ -11,6 +11,12 @@ from .image import png_bytes
 from .obj import corner_uvs, texture_image, unique_rows, vertex_colors
 
 
+#: model axis -> the rotation that turns it into glTF's +Y up (right-handed, so nothing mirrors)
+TO_GLTF_UP = {"y": np.eye(4),
+              "z": np.array([[1.0, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1]]),    # (x, z, -y)
+              "x": np.array([[0, -1.0, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])}    # (-y, x, z)
+
+
 class EncodedPNG:
     """A texture already encoded by :func:`png_bytes`, standing in for a PIL image in trimesh's
     glTF writer (which calls ``save`` and stores what it writes).
@@ -35,8 +41,13 @@ class EncodedPNG:
 def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
                color_field: str | None = None, uv_field: str | None = None,
                texture_field: str | None = None, cmap: str = "terrain",
-               orm_field: str | None = None, normal_field: str | None = None) -> bytes:
+               orm_field: str | None = None, normal_field: str | None = None, up: str = "z") -> bytes:
     """GLB bytes; a textured mesh splits vertices only where UVs differ (atlas seams).
+
+    ``up`` is the model's up axis (procgen's generated terrains, primitives and solids are z-up;
+    scanned meshes such as Spot or the bunny are y-up). glTF is +Y up and Blender, three.js and
+    model-viewer turn +Y to their own up, so the mesh is turned (a rotation, never a mirror) for
+    the file to stand upright where it is opened, as in the previews.
 
     ``color_field`` names vertex colours, or a scalar vertex field shown through ``cmap``.
     A textured mesh is a glTF 2.0 metallic-roughness material (trimesh's PBRMaterial): the
@@ -49,9 +60,13 @@ def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | N
 
     if not isinstance(domain, TriMesh):
         raise InputError(f"glb: expected a TriMesh, got {domain.kind}")
+    if up not in TO_GLTF_UP:
+        raise InputError(f"glb: up must be x, y or z (the model's up axis), got {up!r}")
     mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field,
                            cmap=cmap, orm_field=orm_field, normal_field=normal_field,
                            image=lambda a: EncodedPNG(a, provenance))
+    if up != "y":
+        mesh.apply_transform(TO_GLTF_UP[up])     # vertices and their normals
     scene = trimesh.Scene(mesh if uv_field else with_vertex_colour_material(mesh, color_field is not None))
     if provenance:
         scene.metadata["procgen"] = provenance
