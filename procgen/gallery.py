@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import RecipeError, printable
+from .exchange.write import make_folder
 from .jobs import Job, JobResult, clean_stale_temps, run_jobs
 from .recipes import find_recipe, list_recipes, read_toml, rules_missing
 from .site import write_site
@@ -196,7 +197,7 @@ def build_gallery(host: "PluginHost", *, only: list[str] | None = None, jobs: in
     thesis's size, into ``gallery/out-thesis``."""
     t0 = time.perf_counter()
     out = Path(out_dir) if out_dir else Path("gallery") / ("out-thesis" if thesis_scale else "out")
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out)
     clean_stale_temps(out)
     entries = load_gallery(host, only, gallery_file)
     if thesis_scale:

@@ -18,6 +18,7 @@ from typing import Any
 
 from .errors import RecipeError
 from .exchange import write
+from .exchange.write import make_folder
 from .jobs import Job, JobResult, clean_stale_temps, run_jobs
 from .recipes import MAX_SEED, parse_override
 
@@ -114,7 +115,7 @@ def sweep(recipe_ref: str, grids: list[str], seeds: list[int], out_dir: Path, *,
     for r in runs[:: max(1, len(seeds))]:
         load_recipe(recipe_ref, host, r.overrides)  # fail fast: every grid point must check
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir)
     clean_stale_temps(out_dir)
     batch = [Job(r.key, recipe_ref, tuple(r.overrides), r.seed, str(out_dir / r.key)) for r in runs]
     results = run_jobs(batch, host, processes=jobs, scheduler=scheduler, force=force, desc="sweep",

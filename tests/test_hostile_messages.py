@@ -163,3 +163,14 @@ def test_an_unknown_colour_map_is_named_short(tmp_path, capsys):
                                     f'options = {{ field = "surface__height", cmap = "{"x" * 5000}" }}\n')
     err = _one_line(capsys, ["run", recipe, "--out", str(tmp_path / "o")], "unknown colour map 'xxx", "...'")
     assert len(err) < 300 and "matplotlib" not in err
+
+
+@pytest.mark.parametrize("argv", [["sweep", "demo/basics", "--seeds", "1", "--jobs", "1"],
+                                  ["gallery", "--only", "no-such-entry*", "--jobs", "1"],
+                                  ["run", "demo/basics"]])
+def test_an_output_folder_that_cannot_be_made_is_one_line(argv, tmp_path, capsys, monkeypatch):
+    """A batch's folder under a file (or on a read-only disk) was an internal error for sweep and
+    gallery; now each says which folder and why, before any run."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "afile").write_text("")
+    _one_line(capsys, [*argv, "--out", "afile/out"], "afile/out: cannot write (afile is a file, not a folder)")

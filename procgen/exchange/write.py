@@ -30,6 +30,11 @@ def _reason(exc: OSError) -> str:
 
 
 def _failure(path: Path, exc: OSError) -> WriteError:
+    if isinstance(exc, (FileExistsError, NotADirectoryError)):    # a file where a folder must be
+        blocker = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+        if blocker is not None:
+            return WriteError(f"{printable(str(path))}: cannot write ({printable(str(blocker))} is a file, "
+                              "not a folder)")
     return WriteError(f"{printable(str(path))}: cannot write ({_reason(exc)})")
 
 
@@ -75,6 +80,17 @@ def write(path: str | Path, data: bytes | str) -> Path:
     except OSError as exc:
         raise _failure(path, exc) from None
     return path
+
+
+def make_folder(folder: str | Path) -> Path:
+    """``folder`` and its parents created if missing; WriteError (one line: the folder and the
+    reason: a read-only disk, a file in the way...) when the system refuses."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _failure(folder, exc) from None
+    return folder
 
 
 def write_many(folder: str | Path, files: dict[str, bytes | str]) -> list[Path]:
