@@ -59,7 +59,11 @@ def test_plate_5_9_stronger_field_more_unstable_each_run_its_own_report(vase):
     assert rep["cracks.unstable_start_fraction"] == rep["cracks_f.unstable_start_fraction"] != e
 
 
-def test_plate_5_9_stronger_field_gives_wider_cracks(vase):
+def test_plate_5_9_recipe_draws_e_faint_and_f_thick(vase):
+    """The card's contrast between (e)'s faint cracks and (f)'s thick ones.  The thesis ran (e)
+    and (f) with different crack parameters without saying which; ours give (e) a width scale
+    24 times (f)'s, so this checks the recipe's own choice reaches the picture (with equal width
+    scales the two runs' median widths are within a few per cent of each other)."""
     widths = {}
     for run_id in ("e", "f"):
         w = np.asarray(vase.domains[f"cells_{run_id}"]["crack__width"])[:, -1]

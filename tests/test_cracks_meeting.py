@@ -42,8 +42,10 @@ def test_mud_cracks_meet_at_about_a_right_angle(meetings):
 def test_steering_only_above_mr_reaches_fewer_cracks(meetings):
     """With CMs turned only by stress above mR (steer = "unstable"), heads coasting through the
     released band along a crack are not turned into it, lose K below mR and stop short: fewer
-    than half as many ends meet another crack (about 30 against 110 at this size)."""
+    than half as many ends meet another crack (about 20 against 110 at this size), and those
+    that do meet at shallower angles (median about 59 degrees against 78)."""
     assert len(meetings["unstable"]) < 0.5 * len(meetings["any"])
+    assert np.median(meetings["unstable"]) < np.median(meetings["any"]) - 10.0
 
 
 # real meshes: (recipe, cells, least meetings).  Plate 5.8's cow has 5,856 facets (about 10

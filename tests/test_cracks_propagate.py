@@ -183,7 +183,7 @@ def test_every_crack_is_8_connected_on_the_tetrahedron(plate_5_10):
     n_cracks, split, multi = _split_cracks(plate_5_10[0].domains["cells"])
     # mud's release reaches the slivers cut by the facet edges, so no cracks are born along
     # them: about 20 cracks at this size, ten of them crossing facet edges
-    assert n_cracks > 15 and multi > 5
+    assert n_cracks >= 18 and multi > 5
     assert split == 0
 
 

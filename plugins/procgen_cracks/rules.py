@@ -117,8 +117,8 @@ class CrackStress(RuleBase):
         two = cell_face[graph.rows] != cell_face[graph.indices]
         maps = facet_maps(dom.layout.frames, _unit_normals(dom), cell_face[graph.rows[two]],
                           cell_face[graph.indices[two]])
-        weights = np.zeros((len(graph.rows), 4, 4))
-        weights[two] = frame_weights(maps)
+        weights = frame_weights(maps)                      # one 4 x 4 turn per cross-facet link only
+        rank = np.cumsum(two) - 1                          # a cross-facet link's row in weights
         for li in layers:                                  # the stressed layers, each vectorised
             if self.mode == "thickness":
                 raw = thickness_spectrum(t[:, li], slots, float(dom.size), gradient=self.gradient,
@@ -127,8 +127,7 @@ class CrackStress(RuleBase):
                 raw = imposed_spectrum(n, self.percent, rng, self.jitter)
             raw = np.where(active[:, li, None], raw * self.scale, 0.0)
             link = active[graph.rows, li] & active[graph.indices, li]
-            turn = (np.nonzero(two[link])[0], weights[link][two[link]])
-            if __import__('os').environ.get('NOTURN'): turn = None
+            turn = (np.nonzero(two[link])[0], weights[rank[link & two]])
             spec[:, li] = relax(raw, graph.rows[link], graph.indices[link], self.share / 100.0, self.loops,
                                 turn)
         dom.add_field(SPECTRUM, spec, at="cell", units="1",
