@@ -39,6 +39,15 @@ def test_a_bad_up_axis_is_one_line():
         glb_export(_box(), up="w")
 
 
+@pytest.mark.parametrize("recipe, output", [("meshes/plate-4-2", 1), ("demo/basics", 6), ("meshes/plate-5-8", 0)])
+def test_a_bad_up_axis_is_refused_at_check(host, recipe, output):
+    from procgen.errors import RecipeError
+    from procgen.recipes import load_recipe
+
+    with pytest.raises(RecipeError, match=r"option 'up': 'w' is not one of \['x', 'y', 'z'\]"):
+        load_recipe(recipe, host, [f"outputs.{output}.options.up=w"])
+
+
 def test_surface_glb_turns_a_z_up_model_and_leaves_a_y_up_one(host):
     from procgen.recipes import load_recipe
     from procgen.runner import render_output, run

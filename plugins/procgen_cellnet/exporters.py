@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from procgen import Exporter, InputError, TriMesh
-from procgen.exchange import glb_export, obj_export, render_mesh_png, to_rgb8
+from procgen.exchange import UpAxis, glb_export, obj_export, render_mesh_png, to_rgb8
 from procgen.exchange.provenance import comment_lines
 from procgen.exchange.svg import finish, fmt_number, new_drawing
 
@@ -155,7 +155,7 @@ def cellnet_obj(domain: Any, *, stem: str, provenance: dict | None = None,
 
 def cellnet_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "surface__color", splat: float = 0.8, p_sat: float = 0.5,
-                up: str = "z") -> bytes:
+                up: UpAxis = "z") -> bytes:
     """Binary glTF of the coloured splats; ``up`` is the model's up axis (as for ``cellnet_png``)."""
     mesh = _splats(domain, "cellnet_glb", color_by, splat, p_sat)
     return glb_export(mesh, stem=stem, provenance=provenance, color_field="vertex__color", up=up)
@@ -164,7 +164,7 @@ def cellnet_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
 def cellnet_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "surface__color", splat: float = 0.8, p_sat: float = 0.5,
                 width: int = 640, height: int = 480, azimuth: float = 35.0, elevation: float = 25.0,
-                up: str = "z", lit: bool = True) -> bytes:
+                up: UpAxis = "z", lit: bool = True) -> bytes:
     """The splats seen from a fixed camera (software renderer) as PNG."""
     import trimesh
 

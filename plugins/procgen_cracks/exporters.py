@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from procgen import Exporter, InputError, Polylines
+from procgen.exchange import UpAxis
 from procgen.exchange.svg import finish, fmt_number, new_drawing, path_data
 
 from .bake import LIFT, LIGHT, _check, crack_maps, texel_colors  # noqa: F401  (texel_colors: API)
@@ -52,7 +53,7 @@ def crack_glb(domain: Any, *, stem: str = "", provenance: dict | None = None, la
               shadow: float = 0.7, highlight: float = 0.6, cells_per_segment: float = 4.0,
               exaggerate: float = 0.02, max_triangles: int = 1_500_000,
               light: tuple[float, ...] = LIGHT, lift_relief: float = 1.0, lift_rim: float = 0.5,
-              lift_scale: float = 1.0, up: str = "z") -> bytes:
+              lift_scale: float = 1.0, up: UpAxis = "z") -> bytes:
     """Binary glTF of the same textured mesh (glTF metallic-roughness: colour, ORM, normal maps);
     ``up`` is the model's up axis (as for ``crack_png``), turned to glTF's +Y."""
     from procgen_surface.export_mesh import glb_bytes
@@ -66,7 +67,7 @@ def crack_glb(domain: Any, *, stem: str = "", provenance: dict | None = None, la
 
 def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, layer: int = -1,
               shadow: float = 0.7, highlight: float = 0.6, width: int = 640, height: int = 480,
-              azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True,
+              azimuth: float = 35.0, elevation: float = 25.0, up: UpAxis = "z", lit: bool = True,
               cells_per_segment: float = 4.0, exaggerate: float = 0.02,
               max_triangles: int = 400_000, light: tuple[float, ...] = LIGHT,
               lift_relief: float = 1.0, lift_rim: float = 0.5, lift_scale: float = 1.0) -> bytes:

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from procgen import Exporter, FieldName, InputError, Polylines
-from procgen.exchange import png_bytes
+from procgen.exchange import UpAxis, png_bytes
 from procgen.lighting import light_direction
 
 from .domain import SurfaceCells
@@ -184,7 +184,7 @@ def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "surface__color", texels: int = 2, cells_per_segment: float = 4.0,
                 exaggerate: float = 0.02, textured: bool = True,
                 max_triangles: int = 1_500_000, relief: FieldName = "", relief_scale: float = 1.0,
-                relief_rim: float = 0.5, normal_strength: float = 1.0, up: str = "z") -> bytes:
+                relief_rim: float = 0.5, normal_strength: float = 1.0, up: UpAxis = "z") -> bytes:
     """Binary glTF of the same displaced mesh: a glTF 2.0 metallic-roughness material with the
     base colour, ORM and normal maps (vertex colours if not textured); ``up`` is the model's up
     axis (as for ``surface_png``), turned to glTF's +Y so the file stands upright in Blender."""
@@ -198,7 +198,7 @@ def surface_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
 
 def surface_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_by: str = "layers", width: int = 640, height: int = 480,
-                azimuth: float = 35.0, elevation: float = 25.0, up: str = "z",
+                azimuth: float = 35.0, elevation: float = 25.0, up: UpAxis = "z",
                 light_azimuth: float | None = None, light_elevation: float = 50.0,
                 cells_per_segment: float = 4.0, exaggerate: float = 0.02,
                 max_triangles: int = 400_000, background: list[int] | None = None,

@@ -6,7 +6,7 @@ from .heightmap import heightmap_npy, heightmap_png16
 from .image import image_png, png_bytes, to_rgb8
 from .obj import obj_export
 from .preview import preview_png, render_mesh_png
-from .registry import Exporter, FieldName, field_options
+from .registry import Exporter, FieldName, UpAxis, field_options
 from .svg import mesh_svg, polylines_svg
 from .write import write, write_many
 
@@ -26,6 +26,6 @@ BUILTIN_EXPORTERS: tuple[Exporter, ...] = (
              "a mesh seen from a fixed camera (software renderer): thumbnails, quick looks"),
 )
 
-__all__ = ["Exporter", "FieldName", "field_options", "write", "write_many", "BUILTIN_EXPORTERS", "png_bytes", "to_rgb8",
+__all__ = ["Exporter", "FieldName", "UpAxis", "field_options", "write", "write_many", "BUILTIN_EXPORTERS", "png_bytes", "to_rgb8",
            "polylines_svg", "mesh_svg", "heightmap_png16", "heightmap_npy", "image_png",
            "obj_export", "glb_export", "preview_png", "render_mesh_png"]

@@ -9,6 +9,7 @@ from ..domains import Domain, TriMesh
 from ..errors import InputError
 from .image import png_bytes
 from .obj import corner_uvs, texture_image, unique_rows, vertex_colors
+from .registry import UpAxis
 
 
 #: model axis -> the rotation that turns it into glTF's +Y up (right-handed, so nothing mirrors)
@@ -41,7 +42,7 @@ class EncodedPNG:
 def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
                color_field: str | None = None, uv_field: str | None = None,
                texture_field: str | None = None, cmap: str = "terrain",
-               orm_field: str | None = None, normal_field: str | None = None, up: str = "z") -> bytes:
+               orm_field: str | None = None, normal_field: str | None = None, up: UpAxis = "z") -> bytes:
     """GLB bytes; a textured mesh splits vertices only where UVs differ (atlas seams).
 
     ``up`` is the model's up axis (procgen's generated terrains, primitives and solids are z-up;

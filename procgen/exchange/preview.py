@@ -15,6 +15,7 @@ import numpy as np
 
 from ..geometry import barycentric, triangle_cross, vertex_normals
 from ..params import ParamInfo
+from .registry import UpAxis
 
 UP_AXES = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
 
@@ -205,7 +206,7 @@ Pixels = Annotated[int, ParamInfo(ge=1, units="px")]
 def preview_png(domain: Any, *, stem: str = "", provenance: dict | None = None,
                 color_field: str | None = None, uv_field: str | None = None,
                 texture_field: str | None = None, width: Pixels = 640, height: Pixels = 480,
-                azimuth: float = 35.0, elevation: float = 25.0, up: str = "z", lit: bool = True,
+                azimuth: float = 35.0, elevation: float = 25.0, up: UpAxis = "z", lit: bool = True,
                 edges: bool = False, normals: float = 0.0) -> bytes:
     """Exporter: a TriMesh seen from a fixed camera as PNG (gallery thumbnails of any mesh).
 

@@ -11,6 +11,8 @@ import typing
 from dataclasses import dataclass
 from typing import Annotated, Any, Callable
 
+from ..params import ParamInfo
+
 
 class _NamesField:
     """The ``Annotated`` metadata of :data:`FieldName`."""
@@ -22,6 +24,9 @@ class _NamesField:
 NAMES_FIELD = _NamesField()
 #: annotation of an exporter option that names a field: ``relief: FieldName = ""``
 FieldName = Annotated[str, NAMES_FIELD]
+#: annotation of an exporter option naming the model's up axis (previews' camera, GLB's +Y),
+#: checked at ``procgen check``
+UpAxis = Annotated[str, ParamInfo(choices=("x", "y", "z"))]
 
 
 def field_options(func: Callable[..., Any]) -> dict[str, str]:
