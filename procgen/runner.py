@@ -55,7 +55,9 @@ def render_output(state: State, spec: OutputSpec, host: "PluginHost",
     except ProcgenError:
         raise
     except (ValueError, TypeError, KeyError, IndexError) as exc:
-        raise InputError(f"output {spec.file!r} ({spec.format}): {type(exc).__name__}: {exc}") from None
+        # the exporter's own words, never its exception class (one line for a user, not a trace)
+        raise InputError(f"output {spec.file!r} ({spec.format}): cannot write this {domain.kind}: "
+                         f"{str(exc).splitlines()[0] if str(exc) else 'its data does not fit the format'}") from None
     rel_dir = Path(spec.file).parent
     files = {Path(spec.file).name: blob} if isinstance(blob, (bytes, str)) else dict(blob)
     return {(rel_dir / Path(name).name).as_posix(): (data.encode() if isinstance(data, str) else bytes(data))
