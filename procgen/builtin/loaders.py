@@ -47,7 +47,9 @@ def resolve_data_path(path: str, base_dir: Path | None) -> Path:
         refuse_special(c, path)
         if c.is_file():
             return c
-    raise InputError(f"file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
+    places = list(dict.fromkeys(str(c.parent) for c in candidates[:-1])) + ["the shipped samples"] \
+        if not p.is_absolute() else [str(p.parent)]
+    raise InputError(f"file {path!r} not found (looked in: {', '.join(places)})")
 
 
 def resample(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -62,7 +62,9 @@ def resolve_mesh_path(path: str, base_dir: Path | None) -> Path:
         refuse_special(c, path)
         if c.is_file():
             return c
-    raise InputError(f"mesh.load: file {path!r} not found (looked in: {', '.join(str(c.parent) for c in candidates)})")
+    places = list(dict.fromkeys(str(c.parent) for c in candidates[:-1])) + ["the shipped meshes"] \
+        if not p.is_absolute() else [str(p.parent)]
+    raise InputError(f"file {path!r} not found (looked in: {', '.join(places)})")
 
 
 #: face-corner texture coordinates read from a mesh file (the vocabulary's ``mesh__uv``)
