@@ -94,7 +94,7 @@ def test_installed_files_are_named_from_their_package(tmp_path, capsys, monkeypa
     # as if procgen were installed where this checkout is (a non-editable install)
     monkeypatch.setattr(procgen.errors, "installed_roots", lambda: (str(Path(procgen.__file__).parents[1]),))
     (tmp_path / "r.toml").write_text('[[steps]]\nrule = "mesh.load"\nparams = { path = "nope.obj" }\n')
-    err = _one_line(capsys, ["check", str(tmp_path / "r.toml")], "nope.obj", "installed procgen/data/meshes")
+    err = _one_line(capsys, ["check", str(tmp_path / "r.toml")], "nope.obj", "the shipped meshes")
     assert str(Path(procgen.__file__).parent) not in err
 
 
