@@ -243,3 +243,15 @@ params = { drops = 200 }
     g = res.state.get("terrain", Grid)
     assert g.periodic and float(np.asarray(g["water__drained"]).sum()) == 0.0
     assert max(abs(v) for v in seam_report(np.asarray(g["surface__height"])).values()) < 4.0
+
+
+def test_a_torus_on_heights_that_do_not_wrap_is_refused_at_check(host):
+    from procgen.errors import RecipeError
+    from procgen.recipes import check_recipe
+
+    steps = [{"rule": "grid.noise", "params": {"grid": "g", "nx": 16, "ny": 16}},
+             {"rule": "water.surface", "params": {"base": "grid", "base_grid": "g", "periodic": True}}]
+    with pytest.raises(RecipeError, match=r"steps\[1\] \(water.surface\): periodic = true needs a tileable Grid 'g'"):
+        check_recipe({"steps": steps}, host, "r.toml")
+    steps[0]["params"]["periodic"] = True
+    check_recipe({"steps": steps}, host, "r.toml")

@@ -85,6 +85,11 @@ class MultiLayerSurface(RuleBase):
         src = self.base_grid or self.grid
         if self.base == "grid" and not any(src in r.domains_created() for r in earlier):
             raise ValueError(f"base = 'grid' needs a Grid {src!r} made by an earlier step (grid.load)")
+        maker = next((r for r in reversed(earlier) if src in r.domains_created()), None)
+        if self.base == "grid" and self.periodic and not getattr(maker, "periodic", False):
+            # a torus laid on heights that do not wrap would carry their seam into every map
+            raise ValueError(f"periodic = true needs a tileable Grid {src!r} (grid.noise with periodic = true), "
+                             f"but {maker.name} makes one that does not wrap")
 
     def step(self, state: State) -> bool:
         table, geos = parse_layers(self.layers)
