@@ -83,3 +83,15 @@ def test_blender_stands_a_z_up_model_upright(tmp_path):
     glb.write_bytes(glb_export(_box(), up="z"))
     dims = next(line.split()[1:] for line in run_blender_probe(BLENDER_SCRIPT, glb, tmp_path) if line.startswith("DIMS"))
     assert np.allclose([float(d) for d in dims], EXTENTS, atol=1e-3)
+
+
+def test_vertex_colours_are_written_linear_as_gltf_reads_them():
+    """sRGB mid grey 128 is linear 0.216 (55 of 255); black and white stay; alpha untouched."""
+    mesh = _box()
+    srgb = np.array([[128, 128, 128], [0, 0, 0], [255, 255, 255], [200, 100, 50]] * 2, float) / 255
+    mesh.add_field("surface__color", srgb, at="vertex")
+    scene = trimesh.load(io.BytesIO(glb_export(mesh, color_field="surface__color")), file_type="glb", process=False)
+    (read,) = scene.geometry.values()
+    col = np.asarray(read.visual.vertex_attributes["color"])
+    assert col.shape == (8, 4) and np.all(col[:, 3] == 255)
+    assert col[:4, :3].tolist() == [[55, 55, 55], [0, 0, 0], [255, 255, 255], [147, 32, 8]]

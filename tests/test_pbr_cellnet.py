@@ -10,6 +10,7 @@ import numpy as np
 import trimesh
 
 from _blender import run_blender_probe
+from procgen.exchange.glb import SRGB8_TO_LINEAR8
 from procgen.testing import run_example
 
 PROBE = """
@@ -35,7 +36,8 @@ def test_cellnet_glb_colours_reach_blenders_base_color(host, tmp_path):
     glb = cellnet_glb(net, provenance={"recipe": "pbr-cellnet"})
     (mesh,) = trimesh.load(io.BytesIO(glb), file_type="glb", process=False).geometry.values()
     col = np.asarray(mesh.visual.vertex_attributes["color"])[:, :3]
-    want = np.round(cell_rgb(net, "surface__color") * 255)
+    # glTF's COLOR_0 is linear: the cells' display (sRGB) colours, linearised
+    want = SRGB8_TO_LINEAR8[np.round(cell_rgb(net, "surface__color") * 255).astype(int)]
     # every splat vertex carries its cell's colour (6 vertices a splat, cells in order)
     assert set(map(tuple, col.astype(int))) <= set(map(tuple, want.astype(int)))
     assert len(np.unique(col, axis=0)) > 3                          # several seed colours

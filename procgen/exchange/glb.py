@@ -18,6 +18,13 @@ TO_GLTF_UP = {"y": np.eye(4),
               "x": np.array([[0, -1.0, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])}    # (-y, x, z)
 
 
+#: 8-bit sRGB -> 8-bit linear: glTF's COLOR_0 is a linear multiplier (glTF 2.0, 3.7.2.1 "Meshes":
+#: "vertex colors ... linear"), while procgen's colours are display (sRGB) values as in its PNGs;
+#: written unconverted they show washed out in Blender, three.js and model-viewer
+_C = np.arange(256) / 255.0
+SRGB8_TO_LINEAR8 = np.round(255 * np.where(_C <= 0.04045, _C / 12.92, ((_C + 0.055) / 1.055) ** 2.4)).astype(np.uint8)
+
+
 class EncodedPNG:
     """A texture already encoded by :func:`png_bytes`, standing in for a PIL image in trimesh's
     glTF writer (which calls ``save`` and stores what it writes).
@@ -78,7 +85,8 @@ def with_vertex_colour_material(mesh: Any, coloured: bool) -> Any:
     """``mesh`` with a material a viewer shows: white times the vertex colours (glTF 2.0 multiplies
     COLOR_0 into the base colour; Blender's importer wires it to the Principled BSDF's Base Color),
     or a plain light grey when the mesh has no colours. Without a material, Blender's default
-    material hides vertex colours."""
+    material hides vertex colours. The colours are written linear (:data:`SRGB8_TO_LINEAR8`), as
+    glTF reads COLOR_0."""
     import trimesh
 
     base = [255, 255, 255, 255] if coloured else [200, 200, 200, 255]
@@ -87,7 +95,8 @@ def with_vertex_colour_material(mesh: Any, coloured: bool) -> Any:
                                                    roughnessFactor=0.8, doubleSided=True)
     visual = trimesh.visual.TextureVisuals(material=material)
     if coloured:
-        visual.vertex_attributes["color"] = np.asarray(mesh.visual.vertex_colors, np.uint8)
+        rgba = np.asarray(mesh.visual.vertex_colors, np.uint8)
+        visual.vertex_attributes["color"] = np.column_stack([SRGB8_TO_LINEAR8[rgba[:, :3]], rgba[:, 3]])
     return trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces, visual=visual, process=False)
 
 
