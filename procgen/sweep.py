@@ -91,10 +91,16 @@ def plan(grids: list[str], seeds: list[int]) -> list[SweepRun]:
             raise RecipeError(f"--grid: {sizes} values x {len(seeds)} seeds is more than a sweep may have "
                               f"({MAX_GRID_POINTS:,} grid points, {MAX_RUNS:,} runs)")
     runs = []
+    used: dict[str, int] = {}
     for combo in itertools.product(*[[(k, v) for v in vals] for k, vals in axes]):
-        # a folder name, never a path: only letters, digits and dots of the key and value
-        label = "_".join(f"{re.sub(r'[^A-Za-z0-9]+', '', k.rsplit('.', 1)[-1])}-{re.sub(r'[^A-Za-z0-9.]+', '', v)}"
+        # a folder name, never a path: letters, digits, '_' of the key, and '.', '+', '-' of the value
+        # (so -1 and 1, 1e-3 and 1e3 stay apart); a name two grid points would share (the same
+        # parameter of two steps, values differing only in other characters) gets ~2, ~3, ...
+        label = "_".join(f"{re.sub(r'[^A-Za-z0-9_]+', '', k.rsplit('.', 1)[-1])}-{re.sub(r'[^A-Za-z0-9.+-]+', '', v)}"
                          for k, v in combo).lstrip(".") or "base"
+        used[label] = used.get(label, 0) + 1
+        if used[label] > 1:
+            label = f"{label}~{used[label]}"
         for seed in seeds:
             runs.append(SweepRun(f"{label}/seed-{seed}", [f"{k}={v}" for k, v in combo], dict(combo), seed))
     return runs

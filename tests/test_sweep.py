@@ -23,6 +23,19 @@ def test_parsing():
     assert len(runs) == 8 and len({r.key for r in runs}) == 8
 
 
+@pytest.mark.parametrize("grids", [["steps.a.params.offset=-1,1"], ["steps.a.params.x=1e-3,1e3"],
+                                   ["steps.a.params.x=1,2", "steps.b.params.x=1,2"],
+                                   ['steps.a.params.name="a b","ab","a/b"'],
+                                   ["steps.a.params.a_b=1,2", "steps.a.params.ab=1,2"]])
+def test_every_grid_point_has_its_own_folder(grids):
+    """Two grid points never share a run folder (one would overwrite the other's files), and
+    every folder is one plain name under the sweep's folder."""
+    runs = plan(grids, [1])
+    keys = [r.key for r in runs]
+    assert len(set(keys)) == len(keys), keys
+    assert all(k.count("/") == 1 and ".." not in k.split("/") and not k.startswith(".") for k in keys)
+
+
 def test_bad_grid_value_fails_before_any_run(tmp_path):
     with pytest.raises(RecipeError, match="radius"):
         sweep("demo/basics", ["steps.0.params.radius=0.1,-2"], [1], tmp_path / "o")
