@@ -258,3 +258,12 @@ def test_young_on_one_material_keeps_only_its_rings_and_follows_the_equation(hos
     seam = (mat == 2) & (net.positions[:, 0] < 12.0 + r1)
     assert seam.any() and np.asarray(rule._rings[0][np.searchsorted(np.nonzero(mat == 2)[0], np.nonzero(seam)[0])]
                                       [:, mat == 1].sum()) > 0
+
+
+def test_a_material_id_beyond_int16_is_refused_at_check(host):
+    from procgen.errors import RecipeError
+
+    steps = [{"rule": "mesh.primitive", "params": {"shape": "cube"}},
+             {"rule": "cellnet.parts", "params": {"materials": [70000]}}]
+    with pytest.raises(RecipeError, match=r"steps\[1\] \(cellnet.parts\).*70000 is outside 0..32767"):
+        check_recipe({"steps": steps}, host, "t.toml")

@@ -93,6 +93,11 @@ class MeshParts(RuleBase):
     materials: list[int] | None = param(None, doc="material id of each part in that order "
                                         "(default: part k gets k + 1); one per part")
 
+    def validate(self) -> None:
+        bad = [m for m in (self.materials or ()) if not 0 <= m <= 32767]
+        if bad:     # face__material is int16
+            raise ValueError(f"materials: {bad[0]} is outside 0..32767, the ids a face material takes")
+
     def step(self, state: State) -> bool:
         mesh = state.get(self.mesh, TriMesh)
         if mesh.vertices.shape[1] != 3:
