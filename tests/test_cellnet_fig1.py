@@ -17,6 +17,8 @@ from procgen_cellnet.parts import face_parts, reading_order
 from procgen_cellnet.seeding import DEGREE, link_radius
 from procgen_cellnet.states import TRANSPARENT
 
+from _cellnet import random_young_state, young_field
+
 LOGO_STEPS = 3          # lines.load, mesh.extrude, cellnet.parts: the first steps of every fig-1 recipe
 
 
@@ -226,22 +228,15 @@ def test_figure_13_paints_three_layers_that_all_dry(host):
 def test_young_on_one_material_keeps_only_its_rings_and_follows_the_equation(host):
     """Figure 1(l): the lichen rule on one glyph's cells holds the rings of those cells only (a
     million-cell logo would need gigabytes otherwise) and still sums over every neighbour."""
-    from procgen import State
     from procgen_cellnet.activation import ActivatorInhibitor
-    from procgen_cellnet.states import ACTIVE, INFLUENCING, RECEIVING, SLEEPING, put_states, receives, sends
+    from procgen_cellnet.states import receives
 
     sq = lambda x0: [[[x0, 0.0, 0.0], [x0 + 12.0, 0.0, 0.0], [x0 + 12.0, 12.0, 0.0], [x0, 12.0, 0.0]]]
     steps = [{"rule": "cellnet.polygons", "params": {"polygons": [sq(0.0), sq(12.0)], "materials": [1, 2]}},
              {"rule": "cellnet.seed", "params": {"grid": "triangle", "cs": 1.0}}, {"rule": "cellnet.link"}]
     net = run(check_recipe({"steps": steps}, host, "t.toml"), host, seed=1, progress=False).state.domains["cells"]
     n = net.n_cells
-    rng = np.random.default_rng(3)
-    gs = rng.choice([SLEEPING, RECEIVING, INFLUENCING, ACTIVE], n, p=[0.1, 0.2, 0.2, 0.5]).astype(np.int8)
-    put_states(net, gs)
-    alive = rng.random(n) < 0.5
-    net.add_field("ca__alive", alive, at="cell")
-    state = State(seed=1)
-    state.add_domain("cells", net)
+    state, gs, alive = random_young_state(net, 3)
     h, j1, j2, r1, r2 = 0.2, 1.0, -0.2, 2.3, 6.0
     rule = ActivatorInhibitor.from_params({"h": h, "j1": j1, "j2": j2, "r1": r1, "r2": r2, "materials": [2]}, "t")
     rule.setup(state)
@@ -249,10 +244,7 @@ def test_young_on_one_material_keeps_only_its_rings_and_follows_the_equation(hos
     assert rule._rings[0].shape == ((mat == 2).sum(), n)                 # rows of the glyph only
     rule.step(state)
     got = np.asarray(net["ca__alive"])
-    d = np.linalg.norm(net.positions[:, None] - net.positions[None], axis=2)
-    s = (alive & sends(gs)).astype(float)
-    field = h + j1 * ((d < r1) * s).sum(axis=1) + j2 * (((d >= r1) & (d < r2)) * s).sum(axis=1)
-    want = np.where(receives(gs) & (mat == 2), field > 0, alive)
+    want = np.where(receives(gs) & (mat == 2), young_field(net, gs, alive, h, j1, j2, r1, r2) > 0, alive)
     assert np.array_equal(got, want) and (got != alive).any()
     # cells of the other material near the seam count in the sums: the rings cross it
     seam = (mat == 2) & (net.positions[:, 0] < 12.0 + r1)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from procgen import State
-from _cellnet import permuted
+from _cellnet import permuted, random_young_state, young_field
 from procgen_cellnet.activation import ActivatorInhibitor
 from procgen_cellnet.boxes import BoxIndex, pairs_kdtree
 from procgen_cellnet.cracks import CrackDerivative
@@ -122,23 +122,13 @@ def test_crack_rule_leaves_crack_cells_asleep_and_a_second_pass_changes_nothing(
 def test_young_rule_follows_its_equation_cell_by_cell():
     """p_i <- [h + J1 sum_{r_ij < R1} p_j + J2 sum_{R1 <= r_ij < R2} p_j > 0] over sending cells."""
     net = lattice("triangle", 14.0, seed=4)
-    n = net.n_cells
-    rng = np.random.default_rng(5)
-    gs = rng.choice([SLEEPING, RECEIVING, INFLUENCING, ACTIVE], n, p=[0.1, 0.2, 0.2, 0.5]).astype(np.int8)
-    put_states(net, gs)
-    alive = rng.random(n) < 0.5
-    net.add_field("ca__alive", alive, at="cell")
-    state = State(seed=1)
-    state.add_domain("cells", net)
+    state, gs, alive = random_young_state(net, 5)
     h, j1, j2, r1, r2 = 0.3, 1.0, -0.25, 2.3, 6.0
     rule = ActivatorInhibitor.from_params({"h": h, "j1": j1, "j2": j2, "r1": r1, "r2": r2}, "t")
     rule.setup(state)
     rule.step(state)
     got = np.asarray(net["ca__alive"])
-    d = np.linalg.norm(net.positions[:, None] - net.positions[None], axis=2)
-    s = (alive & sends(gs)).astype(float)
-    field = h + j1 * ((d < r1) * s).sum(axis=1) + j2 * (((d >= r1) & (d < r2)) * s).sum(axis=1)
-    want = np.where(receives(gs), field > 0, alive)
+    want = np.where(receives(gs), young_field(net, gs, alive, h, j1, j2, r1, r2) > 0, alive)
     assert np.array_equal(got, want)
     assert math.isclose(got.mean(), want.mean()) and got.any() and not got.all()
 
