@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from procgen import InputError, Polylines
+from procgen.exchange.svg import svg_decimals
 import svgelements
 import shapely
 import shapely.affinity
@@ -22,6 +23,7 @@ from procgen_snaxel.growth import CloudGrowth
 from procgen_snaxel.tessellate import poisson_tessellation
 
 from test_snaxel_engine import small_cfg
+from _svg_path import d_points
 
 SVG = "{http://www.w3.org/2000/svg}"
 INK = "{http://www.inkscape.org/namespaces/inkscape}"
@@ -125,7 +127,7 @@ def test_rounded_outline_cuts_spikes_and_the_thesis_outline_stays_the_default():
     assert Polygon(soft).exterior.is_ccw
     root, _ = _scape()
     outlines = {p.get("id"): p.get("d") for p in root.iter(SVG + "path") if (p.get("id") or "").startswith("outline")}
-    assert len(outlines) == 2 and outlines["outline0"].count("L") == 23     # the snaxel contour, point for point
+    assert len(outlines) == 2 and len(d_points(outlines["outline0"])) == 24     # the snaxel contour, point for point
     smooth, _ = _scape(outline="rounded", round_radius=0.2)
     assert {p.get("d") for p in smooth.iter(SVG + "path") if p.get("id") == "outline1"} != {outlines["outline1"]}
 
@@ -184,7 +186,7 @@ def test_ground_shadow_is_the_clouds_outline_projected_along_the_sun(tmp_path):
         qx, ty, sc, sy, _, neg_qy = (float(v) for v in re.findall(r"-?[\d.]+", layers[label].get("transform")))
         m = (sc, 0.0, 0.0, sy, qx - sc * qx, ty + sy * neg_qy)        # translate(qx,ty) scale(sc,sy) translate(-qx,-qy)
         outline = [p for p in root.iter(SVG + "path") if p.get("id") == f"outline{k - 1}"][0].get("d")
-        page_pts = np.array(re.findall(r"(-?[\d.]+),(-?[\d.]+)", outline), float)
+        page_pts = d_points(outline)
         drawn = page_pts @ np.array([[m[0], m[1]], [m[2], m[3]]]) + [m[4], m[5]]
         shadow = shapes[f"shadow-of-cloud-{k}"]
         assert len(shadow) == len(drawn)
@@ -240,7 +242,7 @@ def test_horizon_clouds_are_smaller_paler_pairwise_different_and_fixed_by_the_ou
     shapes = []
     for g in subs:
         p = g.find(SVG + "path")
-        pts = np.array(re.findall(r"(-?[\d.]+),(-?[\d.]+)", p.get("d")), float)
+        pts = d_points(p.get("d"))
         assert np.ptp(pts[:, 0]) < 0.6 * far_w and pts[:, 1].max() <= y_h + 0.05    # smaller, above the horizon
         assert pts[:, 0].min() >= 0.02 * 150 - 0.05 and pts[:, 0].max() <= 150 - 0.02 * 150 + 0.05   # whole
         assert paleness(p.get("fill")[5:-1]) < paleness("body0")                      # paler than the far cloud
@@ -431,7 +433,7 @@ def _edge_scape(**kw) -> tuple[ET.Element, bytes]:
 
 def _drawn_outlines(root: ET.Element) -> dict[str, np.ndarray]:
     """Each cloud layer's outline (page units) with its layer transform applied."""
-    paths = {p.get("id"): np.array(re.findall(r"(-?[\d.]+),(-?[\d.]+)", p.get("d")), float)
+    paths = {p.get("id"): d_points(p.get("d"))
              for p in root.iter(SVG + "path") if (p.get("id") or "").startswith("outline")}
     out = {}
     for g in root.findall(SVG + "g"):
@@ -450,9 +452,10 @@ def test_clouds_stay_whole_inside_the_frame_unless_bleed_and_necks_are_repaired(
     assert raw == _edge_scape(neck=0.6, frame_margin=0.03)[1]         # byte-identical for the same input
     drawn = _drawn_outlines(root)
     assert len(drawn) == 2
+    tol = 0.5 * 10.0 ** -svg_decimals(300) + 1e-3                    # half the path resolution + the transform's
     for p in drawn.values():                                         # whole clouds inside the page by the margin
-        assert p[:, 0].min() >= 0.03 * 300 - 1e-3 and p[:, 0].max() <= 300 - 0.03 * 300 + 1e-3
-        assert p[:, 1].min() >= 0.03 * 300 - 1e-3
+        assert p[:, 0].min() >= 0.03 * 300 - tol and p[:, 0].max() <= 300 - 0.03 * 300 + tol
+        assert p[:, 1].min() >= 0.03 * 300 - tol
         model = np.column_stack([p[:, 0], -p[:, 1]])                 # y up for the neck measure
         assert _narrowest(model) >= 0.6                              # no neck under 60 % of the width above it
     bled, _ = _edge_scape(neck=0.0, bleed=True)

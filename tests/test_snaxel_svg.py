@@ -6,6 +6,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from _svg_path import d_points
 
 from procgen import InputError, Polylines
 
@@ -40,7 +41,7 @@ def test_cloud_svg_is_y_down_from_zero_in_real_units():
     assert layers(root) == ["sky", "cloud"]
     assert not any(el.get("transform") for el in root.iter())
     d = [p for p in root.iter(SVG + "path")][-1].get("d")
-    first = [float(v) for v in d[1:].split(" L")[0].split(",")]
+    first = list(d_points(d)[0])
     # the last contour's model point (60 + 37, 40) (y up, box top at 80) sits at page (97, 40) (y down)
     assert first == pytest.approx([97.0, 80.0 - 40.0])
     no_sky = ET.fromstring(cloud_svg(dom, background=None))

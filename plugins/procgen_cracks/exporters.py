@@ -14,7 +14,7 @@ import numpy as np
 
 from procgen import Exporter, InputError, Polylines
 from procgen.exchange import UpAxis
-from procgen.exchange.svg import finish, fmt_number, new_drawing, path_data
+from procgen.exchange.svg import box_decimals, finish, fmt_number, new_drawing, paths_data
 
 from .bake import LIFT, LIGHT, _check, crack_maps, texel_colors  # noqa: F401  (texel_colors: API)
 
@@ -102,20 +102,24 @@ def crack_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wi
     x0, y0 = pts.min(axis=0)
     x1, y1 = pts.max(axis=0)
     pad = 0.03 * max(x1 - x0, y1 - y0, 1e-9)
-    dwg, group, px = new_drawing((x0 - pad, x1 + pad, y0 - pad, y1 + pad), width, background)
+    bounds = (x0 - pad, x1 + pad, y0 - pad, y1 + pad)
+    dwg, group, px = new_drawing(bounds, width, background)
     w = np.asarray(domain["crack__width"], float)
     layer = np.asarray(domain["crack__layer"])
     hair = fmt_number(max(px, 1e-9))
-    for i in range(domain.n_lines):                # one SVG element per line/segment: text output
+    pieces: list[tuple[np.ndarray, bool, dict]] = []   # one SVG element per line/segment: text output
+    for i in range(domain.n_lines):
         s, e = domain.offsets[i], domain.offsets[i + 1]
         if layer[i] < 0:
-            group.add(dwg.path(d=path_data(pts[s:e], bool(domain.closed[i])), fill="none",
-                               stroke=outline, stroke_width=hair, stroke_linejoin="round"))
+            pieces.append((pts[s:e], bool(domain.closed[i]), dict(stroke=outline, stroke_width=hair,
+                                                                   stroke_linejoin="round")))
             continue
         for j in range(s, e - 1):
             sw = 0.5 * (w[j] + w[j + 1])
-            group.add(dwg.path(d=path_data(pts[j:j + 2], False), fill="none", stroke=color,
-                               stroke_width=fmt_number(sw), stroke_linecap="round"))
+            pieces.append((pts[j:j + 2], False, dict(stroke=color, stroke_width=fmt_number(sw), stroke_linecap="round")))
+    ds = paths_data([p for p, _, _ in pieces], [c for _, c, _ in pieces], box_decimals(bounds))
+    for d, (_, _, style) in zip(ds, pieces):
+        group.add(dwg.path(d=d, fill="none", **style))
     return finish(dwg, provenance, title)
 
 

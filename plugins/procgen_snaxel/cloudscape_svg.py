@@ -36,7 +36,7 @@ import shapely
 import shapely.affinity
 
 from procgen import InputError
-from procgen.exchange.svg import finish, fmt_number, path_data
+from procgen.exchange.svg import finish, fmt_number
 
 from .svgdoc import Page, curve_pieces, domain_box, mix, need
 
@@ -584,7 +584,7 @@ def _haze(dwg: Any, page: Page, dom: Any, shapes: list[np.ndarray], count: int, 
         grad.add_stop_color(1.0, mix(shade, sky_horizon, 0.55 + 0.4 * pale))
         dwg.defs.add(grad)
         page.sublayer(group, f"horizon cloud {j + 1}", f"horizon-cloud-{j + 1}").add(
-            dwg.path(d=path_data(np.round(drawn, 1), True), fill=f"url(#haze{j})", filter=blur))
+            dwg.path(d=page.ds([np.round(drawn, 1)], True, page=True)[0], fill=f"url(#haze{j})", filter=blur))
 
 
 def lobe_light(sun3: np.ndarray) -> tuple[tuple[float, float], float]:

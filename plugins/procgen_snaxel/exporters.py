@@ -14,7 +14,7 @@ import numpy as np
 
 from procgen import InputError, Polylines
 from procgen.builtin.lines import chaikin
-from procgen.exchange.svg import finish, fmt_number, path_data, vertical_gradient
+from procgen.exchange.svg import finish, fmt_number, vertical_gradient
 
 from .cloudscape_svg import cloudscape_svg
 from .svgdoc import Page, curve_pieces, domain_box, need
@@ -80,13 +80,13 @@ def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
         page.layer("silhouette").add(dwg.path(d=page.d(dom.line(dom.n_lines - 1)), fill=fill, stroke="none"))
     sw = fmt_number(stroke_width * page.unit)
     steps = dom["snapshot__step"] if "snapshot__step" in dom else np.arange(dom.n_lines)
-    for i in range(dom.n_lines):
-        a, b = dom.offsets[i], dom.offsets[i + 1]
-        if b - a < 2:
-            continue
+    contours = [(i, curve_pieces(dom.points[dom.offsets[i]:dom.offsets[i + 1]], curve[dom.offsets[i]:dom.offsets[i + 1]]))
+                for i in range(dom.n_lines) if dom.offsets[i + 1] - dom.offsets[i] >= 2]
+    ds = iter(page.ds([piece for _, pieces in contours for _, piece in pieces], False))   # one formatting pass
+    for i, pieces in contours:
         layer = page.layer(f"contour step {int(steps[i])}")
-        for cid, piece in curve_pieces(dom.points[a:b], curve[a:b]):
-            layer.add(dwg.path(d=page.d(piece, False), fill="none", stroke=curve_colour(cid),
+        for cid, _ in pieces:
+            layer.add(dwg.path(d=next(ds), fill="none", stroke=curve_colour(cid),
                                stroke_width=sw, stroke_linejoin="round"))
     return finish(dwg, provenance, title or "snaxel growth process")
 
@@ -104,12 +104,13 @@ def view_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
     edges = [dom.line(i) for i in np.flatnonzero(kind == 0)]
     if edges:
         tess = page.layer("tessellation")
-        tess.add(dwg.path(d=" ".join(page.d(e, False) for e in edges), fill="none",
+        tess.add(dwg.path(d="".join(page.ds(edges, False)), fill="none",
                           stroke="#9aa4b4", stroke_width=fmt_number(1.2 * px)))
         verts = page.xy(np.unique(np.round(np.vstack(edges), 9), axis=0))
         dots = dwg.g(fill="#2451c8")
         for x, y in verts:
-            dots.add(dwg.circle(center=(fmt_number(x), fmt_number(y)), r=fmt_number(4.0 * px)))
+            dots.add(dwg.circle(center=(fmt_number(x, page.decimals), fmt_number(y, page.decimals)),
+                                r=fmt_number(4.0 * px)))
         tess.add(dots)
     x0, x1, y0, y1 = box
     for i in np.flatnonzero(kind == 1):
@@ -120,7 +121,8 @@ def view_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wid
         dots = dwg.g(fill="#ffd21f", stroke="#6a5500", stroke_width=fmt_number(0.8 * px))
         inside = (snake[:, 0] > x0 - 1) & (snake[:, 0] < x1 + 1) & (snake[:, 1] > y0 - 1) & (snake[:, 1] < y1 + 1)
         for x, y in page.xy(snake[inside]):
-            dots.add(dwg.circle(center=(fmt_number(x), fmt_number(y)), r=fmt_number(5.0 * px)))
+            dots.add(dwg.circle(center=(fmt_number(x, page.decimals), fmt_number(y, page.decimals)),
+                                r=fmt_number(5.0 * px)))
         layer.add(dots)
     return finish(dwg, provenance, title or "snaxels on a tessellation")
 
@@ -246,9 +248,11 @@ def plotter_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
                            stroke_width=fmt_number(pen_width * page.unit), stroke_linejoin="round",
                            stroke_linecap="round")
         lines = [page.xy(chaikin(dom.line(i), bool(dom.closed[i]), int(smooth))) for i in idx]
-        for p in plot_order(lines, [bool(dom.closed[i]) for i in idx], pen):
-            layer.add(dwg.path(d=path_data(p, False)))
-            pen = p[-1]
+        ordered = plot_order(lines, [bool(dom.closed[i]) for i in idx], pen)
+        for d in page.ds(ordered, False, page=True):
+            layer.add(dwg.path(d=d))
+        if ordered:
+            pen = ordered[-1][-1]
     return finish(dwg, provenance, title or "snaxel cloud (plotter)")
 
 

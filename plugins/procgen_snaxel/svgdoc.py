@@ -15,7 +15,7 @@ import numpy as np
 import svgwrite
 
 from procgen import InputError, Polylines
-from procgen.exchange.svg import fmt_number, path_data
+from procgen.exchange.svg import fmt_number, paths_data, svg_decimals
 
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
 UNITS = ("px", "mm")
@@ -38,6 +38,8 @@ class Page:
         self.dwg["viewBox"] = f"0 0 {fmt_number(self.w)} {fmt_number(self.h)}"
         self.dwg.attribs["xmlns:inkscape"] = INKSCAPE_NS
         self.unit = self.w / width       # domain units per output unit (px or mm)
+        #: the page's path precision, declared once: 1/10000 of its larger side (issue 34)
+        self.decimals = svg_decimals(max(self.w, self.h))
         self._layers = 0
 
     def xy(self, pts: np.ndarray) -> np.ndarray:
@@ -46,7 +48,12 @@ class Page:
         return np.column_stack([pts[:, 0] - x0, y1 - pts[:, 1]])
 
     def d(self, pts: np.ndarray, closed: bool = True) -> str:
-        return path_data(self.xy(pts), closed)
+        """Path data of model points at the page's precision."""
+        return self.ds([pts], closed)[0]
+
+    def ds(self, lines: list[np.ndarray], closed: bool | list[bool] = True, *, page: bool = False) -> list[str]:
+        """Path data of many lines in one formatting pass (model points, or page points with ``page``)."""
+        return paths_data(lines if page else [self.xy(p) for p in lines], closed, self.decimals)
 
     def layer(self, label: str, **attrs: Any) -> svgwrite.container.Group:
         """A new top-level Inkscape layer (drawn above the previous ones)."""
