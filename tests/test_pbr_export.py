@@ -230,15 +230,10 @@ def test_cracked_mesh_bakes_once_and_the_crack_shows_the_metal():
     orm = np.asarray(mat.metallicRoughnessTexture.convert("RGB"))
     assert orm[..., 2].max() > 240 and orm[..., 2].min() < 15       # copper in the crack, glaze over it
     files = crack_obj(sc, stem="c", provenance=PROV, exaggerate=0.0)
-    assert files["c_texture.png"] == _texture_of(glb)               # one atlas, every format
-
-
-def _texture_of(glb: bytes) -> bytes:
-    """The base-colour image of a GLB re-encoded through the OBJ path's encoder, for comparison."""
-    from procgen.exchange import png_bytes
-
-    img = load_glb(glb).visual.material.baseColorTexture
-    return png_bytes(np.asarray(img), PROV)
+    obj_atlas = np.asarray(Image.open(io.BytesIO(files["c_texture.png"])).convert("RGB"), int)
+    glb_atlas = np.asarray(load_glb(glb).visual.material.baseColorTexture.convert("RGB"), int)
+    assert glb_atlas.shape == obj_atlas.shape                       # one atlas, every format:
+    assert np.abs(glb_atlas - obj_atlas).mean() < 1.5               # equal up to the GLB's JPEG error
 
 
 def test_blender_finds_base_color_metallic_roughness_and_normal_as_textures(tmp_path):

@@ -7,8 +7,10 @@ import numpy as np
 
 from ..domains import Domain, TriMesh
 from ..errors import InputError
+from .gltf_compact import quantize_glb
 from .image import png_bytes
 from .obj import corner_uvs, texture_image, unique_rows, vertex_colors
+from .provenance import provenance_json
 from .registry import UpAxis
 
 
@@ -25,25 +27,47 @@ _C = np.arange(256) / 255.0
 SRGB8_TO_LINEAR8 = np.round(255 * np.where(_C <= 0.04045, _C / 12.92, ((_C + 0.055) / 1.055) ** 2.4)).astype(np.uint8)
 
 
-class EncodedPNG:
-    """A texture already encoded by :func:`png_bytes`, standing in for a PIL image in trimesh's
-    glTF writer (which calls ``save`` and stores what it writes).
+class EncodedTexture:
+    """A texture already encoded, standing in for a PIL image in trimesh's glTF writer (which calls
+    ``save`` and stores what it writes, with ``format`` as its MIME type).
 
     Why: trimesh re-encodes every texture at zlib's default level, once per material slot (the
     ORM image fills two: occlusion and metallic-roughness); for a large atlas that encoding was
-    most of an export's time.  Encoded once here, through the one PNG encoder (its compression
-    policy and provenance chunk), and written as bytes in every slot that uses it (trimesh
-    stores equal bytes once)."""
-
-    format = "PNG"
+    most of an export's time.  Encoded once here and written as bytes in every slot that uses it
+    (trimesh stores equal bytes once).  An opaque map is written as JPEG (quality
+    :data:`JPEG_QUALITY`, no chroma subsampling, so the ORM channels do not bleed into each other)
+    when that is under :data:`JPEG_SHARE` of its PNG: glTF 2.0 core reads both, and the PNG maps
+    written beside an OBJ stay lossless.  Provenance rides in the PNG text chunk or the JPEG
+    comment."""
 
     def __init__(self, array: np.ndarray, provenance: dict[str, Any] | None = None) -> None:
-        self.data = png_bytes(np.ascontiguousarray(array), provenance)
+        array = np.ascontiguousarray(array)
         self.size = (int(array.shape[1]), int(array.shape[0]))
         self.mode = "L" if array.ndim == 2 else {1: "L", 3: "RGB", 4: "RGBA"}[int(array.shape[2])]
+        self.format, self.data = "PNG", png_bytes(array, provenance)
+        if array.dtype == np.uint8 and self.mode != "RGBA":
+            jpeg = jpeg_bytes(array, provenance)
+            if len(jpeg) < JPEG_SHARE * len(self.data):
+                self.format, self.data = "JPEG", jpeg
 
     def save(self, fp: Any, format: str | None = None, **_: Any) -> None:   # noqa: A002 (PIL's name)
         fp.write(self.data)
+
+
+#: JPEG quality of GLB textures, and how much smaller than the PNG a JPEG must be to be chosen
+JPEG_QUALITY, JPEG_SHARE = 90, 0.7
+
+
+def jpeg_bytes(array: np.ndarray, provenance: dict[str, Any] | None = None) -> bytes:
+    """Baseline JPEG of an 8-bit L/RGB image, 4:4:4, provenance in the comment (deterministic)."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(array).save(buf, format="JPEG", quality=JPEG_QUALITY, subsampling=0, optimize=True,
+                                comment=provenance_json(provenance).encode())
+    return buf.getvalue()
 
 
 def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | None = None,
@@ -72,13 +96,13 @@ def glb_export(domain: Domain, *, stem: str = "", provenance: dict[str, Any] | N
         raise InputError(f"glb: up must be x, y or z (the model's up axis), got {up!r}")
     mesh = mesh_for_export(domain, color_field=color_field, uv_field=uv_field, texture_field=texture_field,
                            cmap=cmap, orm_field=orm_field, normal_field=normal_field,
-                           image=lambda a: EncodedPNG(a, provenance))
+                           image=lambda a: EncodedTexture(a, provenance))
     if up != "y":
         mesh.apply_transform(TO_GLTF_UP[up])     # vertices and their normals
     scene = trimesh.Scene(mesh if uv_field else with_vertex_colour_material(mesh, color_field is not None))
     if provenance:
         scene.metadata["procgen"] = provenance
-    return scene.export(file_type="glb")
+    return quantize_glb(scene.export(file_type="glb"))
 
 
 def with_vertex_colour_material(mesh: Any, coloured: bool) -> Any:
@@ -107,7 +131,7 @@ def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field
     """A ``trimesh.Trimesh`` carrying the domain's vertex colours or UV-mapped texture.
 
     ``image``: how a texture array becomes the material's image (default a PIL image, which the
-    preview renderer samples; the GLB writer passes :class:`EncodedPNG`)."""
+    preview renderer samples; the GLB writer passes :class:`EncodedTexture`)."""
     import trimesh
     from PIL import Image
 
@@ -122,7 +146,8 @@ def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field
         uniq, inverse = unique_rows(pairs)
         verts = v[uniq[:, 0].astype(np.int64)]
         tex = texture_image(domain, texture_field)
-        alpha = tex.shape[2] == 4
+        alpha = tex.shape[2] == 4 and bool((tex[..., 3] < 255).any())
+        tex = tex if alpha else tex[..., :3]     # an opaque map needs no alpha test (and can be a JPEG)
         maps: dict[str, Any] = {"metallicFactor": 0.0, "roughnessFactor": 0.8}
         if orm_field:
             orm = image(texture_image(domain, orm_field))
