@@ -83,11 +83,10 @@ def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
     contours = [(i, curve_pieces(dom.points[dom.offsets[i]:dom.offsets[i + 1]], curve[dom.offsets[i]:dom.offsets[i + 1]]))
                 for i in range(dom.n_lines) if dom.offsets[i + 1] - dom.offsets[i] >= 2]
     ds = iter(page.ds([piece for _, pieces in contours for _, piece in pieces], False))   # one formatting pass
-    for i, pieces in contours:
-        layer = page.layer(f"contour step {int(steps[i])}")
+    for i, pieces in contours:      # the shared style lives on the layer: a path carries its curve's colour only
+        layer = page.layer(f"contour step {int(steps[i])}", fill="none", stroke_width=sw, stroke_linejoin="round")
         for cid, _ in pieces:
-            layer.add(dwg.path(d=next(ds), fill="none", stroke=curve_colour(cid),
-                               stroke_width=sw, stroke_linejoin="round"))
+            layer.add(dwg.path(d=next(ds), stroke=curve_colour(cid)))
     return finish(dwg, provenance, title or "snaxel growth process")
 
 

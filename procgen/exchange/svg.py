@@ -2,6 +2,11 @@
 
 Coordinates keep the model's y-up convention: the drawing is flipped with a transform so that
 Inkscape shows what the model computed, and the viewBox is the domain's bounds.
+
+Path data is compact (issue 34: snaxel process figures were 14 MB): the precision is a property
+of the drawing (:func:`svg_decimals` of its viewBox, 1/10000 of its larger side), the first point
+is absolute and the rest relative moves taken from the rounded absolute coordinates (no drift),
+with implicit command repetition and minimal separators, formatted in numpy (:func:`paths_data`).
 """
 from __future__ import annotations
 
