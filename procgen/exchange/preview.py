@@ -1,7 +1,8 @@
 """Headless mesh preview: a fixed-camera orthographic render to PNG bytes (no GPU, no display).
 
-Painter's algorithm (triangles sorted far to near, drawn with Pillow at 2x then downsampled):
-cheap, dependable, and good enough for the small, dense triangles of exported 3DSCA meshes.
+A z-buffer rasteriser in numpy (:func:`face_id_buffer`, pixel centres tested against every
+face's triangle at 2x, then downsampled): exact occlusion, and no per-face Python loop, so a
+400,000-face mesh renders in well under a second.
 Colours come from ``face_colors``, else the mesh's texture (sampled at each face's centroid UV),
 vertex or face colours; faces whose alpha is below 0.5 (holes) are not drawn.
 """
@@ -35,24 +36,29 @@ def camera_basis(azimuth: float, elevation: float, up: str = "z") -> tuple[np.nd
     return eye, right, sup
 
 
-def mesh_face_colors(mesh: Any) -> np.ndarray:
-    """(m, 4) RGBA floats per face from whatever visual the trimesh carries."""
+def mesh_face_colors(mesh: Any, texture: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """(m, 4) RGBA floats per face from whatever visual the trimesh carries (a texture: the
+    texel at each face's centroid UV; ``texture`` is :func:`_texture_lookup`'s, if at hand)."""
     vis = mesh.visual
     m = len(mesh.faces)
-    if getattr(vis, "kind", None) == "texture" and getattr(vis, "uv", None) is not None:
-        img = getattr(vis.material, "baseColorTexture", None) or getattr(vis.material, "image", None)
-        if img is not None:
-            arr = np.asarray(img.convert("RGBA"), dtype=float) / 255.0
-            uv = np.asarray(vis.uv)[mesh.faces].mean(axis=1)
-            h, w = arr.shape[:2]
-            x = np.clip((uv[:, 0] % 1.0) * w, 0, w - 1).astype(int)
-            y = np.clip((1.0 - uv[:, 1] % 1.0) * h, 0, h - 1).astype(int)
-            return arr[y, x]
+    tex = _texture_lookup(mesh) if texture is None else texture
+    if tex is not None:
+        img, uv = tex
+        return _sample(img, uv[mesh.faces].mean(axis=1))
     if getattr(vis, "kind", None) in ("vertex", "face"):
         fc = np.asarray(vis.face_colors, dtype=float) / 255.0
         if fc.shape == (m, 4):
             return fc
     return np.tile([0.75, 0.75, 0.75, 1.0], (m, 1))
+
+
+def _sample(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """(n, 4) RGBA floats of the uint8 (h, w, 4) ``img`` at ``uv`` (wrapped; nearest texel,
+    v up).  Only the sampled texels become floats: a 16 Mpx atlas is never converted whole."""
+    h, w = img.shape[:2]
+    x = np.clip((uv[:, 0] % 1.0) * w, 0, w - 1).astype(int)
+    y = np.clip((1.0 - uv[:, 1] % 1.0) * h, 0, h - 1).astype(int)
+    return img[y, x] / 255.0
 
 
 @dataclass(frozen=True)
@@ -80,20 +86,97 @@ def project(vertices: np.ndarray, size: tuple[int, int], *, azimuth: float, elev
     return Projection((x - cx) * scale + W / 2, H / 2 - (y - cy) * scale, z, W, H)
 
 
-def face_id_buffer(proj: Projection, faces: np.ndarray, keep: np.ndarray | None = None) -> np.ndarray:
-    """(H, W) int: index of the visible face per pixel (-1 = background), painter's order."""
-    from PIL import Image, ImageDraw
+#: bounding-box sides (pixels) that faces are grouped by: 1, 2, 3, 4, 6, 8, 12, ... (each at
+#: most 1.5 times the one below, so a face tests at most 2.25 times its box's pixel centres)
+_SIDES = np.unique(np.concatenate([[1], 2 ** np.arange(15), 3 * 2 ** np.arange(14)]))
+#: pixel centres tested in one vectorised batch (bounds the memory of a large mesh's raster)
+_BATCH = 1 << 21
+#: barycentric slack: a pixel centre on an edge shared by two faces is inside both, whatever
+#: the rounding of either face's edge function (no pinholes along shared edges)
+_EPS = 1e-9
 
-    img = Image.new("I", (proj.width, proj.height), 0)
-    if len(faces):
-        draw = ImageDraw.Draw(img)
-        order = np.argsort(proj.depth[faces].mean(axis=1), kind="stable")
-        if keep is not None:
-            order = order[keep[order]]
-        tri = np.stack([proj.px[faces[order]], proj.py[faces[order]]], axis=2).reshape(-1, 6).tolist()
-        for t, pts in zip((order + 1).tolist(), tri):       # one draw call per face (C fill)
-            draw.polygon(pts, fill=t)
-    return np.asarray(img, dtype=np.int64) - 1
+
+def face_id_buffer(proj: Projection, faces: np.ndarray, keep: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) int: index of the visible face per pixel (-1 = background).
+
+    A vectorised z-buffer rasteriser: a pixel belongs to the face whose triangle contains the
+    pixel's centre (col + 0.5, row + 0.5) and is nearest the eye there (depth interpolated
+    across the face, so interpenetrating or long faces occlude correctly, unlike a painter's
+    order by mean depth).  Faces are grouped by the (rounded-up) size of their pixel bounding
+    box and every candidate centre of a group is tested at once: barycentric coordinates and
+    depth are linear in the pixel offset from the box corner (orthographic camera), so each
+    face carries its values at the corner and their steps per column and per row.
+    ``np.maximum.at`` keeps the nearest depth per pixel.  ``keep`` (bool per face) leaves
+    faces out (holes); edge-on faces (zero screen area) cover nothing.
+    """
+    W, H = proj.width, proj.height
+    ids = np.full(H * W, -1, np.int64)
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    idx = np.arange(len(f)) if keep is None else np.nonzero(np.asarray(keep, bool))[0]
+    if not len(idx):
+        return ids.reshape(H, W)
+    fk = f[idx].T                                                              # (3, m) corners
+    (x0, x1, x2), (y0, y1, y2) = proj.px[fk], proj.py[fk]
+    c0 = np.maximum(np.ceil(np.minimum(np.minimum(x0, x1), x2) - 0.5), 0)     # first centre inside
+    c1 = np.minimum(np.floor(np.maximum(np.maximum(x0, x1), x2) - 0.5), W - 1)
+    r0 = np.maximum(np.ceil(np.minimum(np.minimum(y0, y1), y2) - 0.5), 0)
+    r1 = np.minimum(np.floor(np.maximum(np.maximum(y0, y1), y2) - 0.5), H - 1)
+    det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)                        # twice the signed area
+    live = (c1 >= c0) & (r1 >= r0) & (det != 0) & np.isfinite(det)
+    if not live.any():
+        return ids.reshape(H, W)
+    sx = np.searchsorted(_SIDES, c1 - c0 + 1)                                   # box side buckets
+    sy = np.searchsorted(_SIDES, r1 - r0 + 1)
+    group = np.where(live, sx * len(_SIDES) + sy, -1)
+    order = np.argsort(group, kind="stable")
+    order = order[group[order] >= 0]                    # faces sorted by bucket: groups are slices
+    group = group[order]
+    idx, c0, r0, det = idx[order], c0[order], r0[order], det[order]
+    (x0, x1, x2), (y0, y1, y2), (z0, z1, z2) = (a[fk[:, order]] for a in (proj.px, proj.py, proj.depth))
+    # barycentric b1, b2 of the box corner's pixel centre, and their steps per column / row
+    dx, dy = c0 + 0.5 - x0, r0 + 0.5 - y0
+    b1x, b1y = (y2 - y0) / det, -(x2 - x0) / det
+    b2x, b2y = -(y1 - y0) / det, (x1 - x0) / det
+    b1 = dx * b1x + dy * b1y
+    b2 = dx * b2x + dy * b2y
+    coef = np.stack([b1, b1x, b1y, b2, b2x, b2y,
+                     z0 + b1 * (z1 - z0) + b2 * (z2 - z0),                     # depth at the corner
+                     b1x * (z1 - z0) + b2x * (z2 - z0), b1y * (z1 - z0) + b2y * (z2 - z0)])
+    corner = np.stack([c0.astype(np.int64), r0.astype(np.int64), idx])
+    keys, starts = np.unique(group, return_index=True)
+    zbuf = np.full(H * W, -np.inf)
+    for key, lo, hi in zip(keys.tolist(), starts.tolist(), [*starts[1:].tolist(), len(order)]):
+        bw, bh = int(_SIDES[key // len(_SIDES)]), int(_SIDES[key % len(_SIDES)])
+        step = max(1, _BATCH // (bw * bh))
+        for s in range(lo, hi, step):
+            e = min(hi, s + step)
+            _raster_group(coef[:, s:e], corner[:, s:e], bw, bh, W, H, zbuf, ids)
+    return ids.reshape(H, W)
+
+
+def _raster_group(coef: np.ndarray, corner: np.ndarray, bw: int, bh: int, W: int, H: int,
+                  zbuf: np.ndarray, ids: np.ndarray) -> None:
+    """Test the (bh, bw) pixel centres from each face's box corner at once (columns of ``coef``
+    and ``corner``, see :func:`face_id_buffer`); write the nearer ones into ``zbuf`` / ``ids``."""
+    j = np.arange(bw, dtype=float)[None, None, :]
+    i = np.arange(bh, dtype=float)[None, :, None]
+    c = coef[:, :, None, None]                                                 # (9, k, 1, 1)
+    b1 = c[0] + j * c[1] + i * c[2]                                            # (k, bh, bw)
+    b2 = c[3] + j * c[4] + i * c[5]
+    inside = (b1 >= -_EPS) & (b2 >= -_EPS) & (b1 + b2 <= 1 + _EPS)
+    k, ii, jj = np.nonzero(inside)
+    if not len(k):
+        return
+    col = corner[0, k] + jj
+    row = corner[1, k] + ii
+    ok = (row < H) & (col < W)                                                 # boxes cut at the image
+    if not ok.all():
+        k, ii, jj, row, col = k[ok], ii[ok], jj[ok], row[ok], col[ok]
+    depth = coef[6, k] + jj * coef[7, k] + ii * coef[8, k]
+    pix = row * W + col
+    np.maximum.at(zbuf, pix, depth)                                            # nearest = largest
+    win = depth >= zbuf[pix]
+    ids[pix[win]] = corner[2, k[win]]
 
 
 def pixel_barycentric(proj: Projection, faces: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -135,14 +218,15 @@ def encode_image(out: np.ndarray, size: tuple[int, int], provenance: dict | None
 
 
 def _texture_lookup(mesh: Any) -> tuple[np.ndarray, np.ndarray] | None:
-    """(RGBA image floats, per-vertex UV) of a textured trimesh, or None."""
+    """(uint8 (h, w, 4) RGBA image, per-vertex UV) of a textured trimesh, or None."""
     vis = mesh.visual
     if getattr(vis, "kind", None) != "texture" or getattr(vis, "uv", None) is None:
         return None
     img = getattr(vis.material, "baseColorTexture", None) or getattr(vis.material, "image", None)
     if img is None:
         return None
-    return np.asarray(img.convert("RGBA"), dtype=float) / 255.0, np.asarray(vis.uv, dtype=float)
+    rgba = img if img.mode == "RGBA" else img.convert("RGBA")
+    return np.asarray(rgba, dtype=np.uint8), np.asarray(vis.uv, dtype=float)
 
 
 def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: float = 35.0,
@@ -168,19 +252,15 @@ def render_mesh_png(mesh: Any, size: tuple[int, int] = (640, 480), *, azimuth: f
     eye, right, sup = camera_basis(azimuth, elevation, up)
     proj = project(v, size, azimuth=azimuth, elevation=elevation, up=up, margin=margin,
                    supersample=ss)
-    fcol = mesh_face_colors(mesh) if face_colors is None else np.asarray(face_colors, dtype=float)
+    tex = _texture_lookup(mesh) if face_colors is None else None
+    fcol = mesh_face_colors(mesh, tex) if face_colors is None else np.asarray(face_colors, dtype=float)
     if fcol.shape[1] == 3:
         fcol = np.column_stack([fcol, np.ones(len(fcol))])
     ids = face_id_buffer(proj, f, fcol[:, 3] >= 0.5)
     rows, cols, tri, bc = pixel_barycentric(proj, f, ids)
-    tex = _texture_lookup(mesh) if face_colors is None else None
     if tex is not None:
         img, uv = tex
-        puv = np.einsum("nk,nkd->nd", bc, uv[f[tri]])
-        h, w = img.shape[:2]
-        x = np.clip((puv[:, 0] % 1.0) * w, 0, w - 1).astype(int)
-        y = np.clip((1.0 - puv[:, 1] % 1.0) * h, 0, h - 1).astype(int)
-        pix = img[y, x]
+        pix = _sample(img, np.einsum("nk,nkd->nd", bc, uv[f[tri]]))
     else:
         pix = fcol[tri]
     hole = pix[:, 3] < 0.5
