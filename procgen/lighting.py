@@ -54,11 +54,17 @@ def phong(normals: np.ndarray, color: np.ndarray, *, light: np.ndarray,
     return out * np.asarray(light_color, dtype=float)
 
 
-def heightfield_normals(height: np.ndarray, spacing: float = 1.0) -> np.ndarray:
-    """Unit normals (..., 3) of a height field z(y, x) on a regular grid (central differences)."""
+def heightfield_normals(height: np.ndarray, spacing: float = 1.0, periodic: bool = False) -> np.ndarray:
+    """Unit normals (..., 3) of a height field z(y, x) on a regular grid: central differences,
+    one-sided at the edges, or taken across them on a ``periodic`` (tileable) grid, so the
+    lighting of a tile matches its neighbour's at the seam."""
     h = np.asarray(height, dtype=float)
     if h.ndim < 2 or h.shape[0] < 2 or h.shape[1] < 2:
         raise InputError(f"heightfield_normals: need a (ny >= 2, nx >= 2) array, got {h.shape}")
-    gy, gx = np.gradient(h, spacing, axis=(0, 1))
+    if periodic:
+        gx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) / (2.0 * spacing)
+        gy = (np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) / (2.0 * spacing)
+    else:
+        gy, gx = np.gradient(h, spacing, axis=(0, 1))
     n = np.stack([-gx, -gy, np.ones_like(h)], axis=-1)
     return n / np.linalg.norm(n, axis=-1, keepdims=True)

@@ -255,3 +255,15 @@ def test_a_torus_on_heights_that_do_not_wrap_is_refused_at_check(host):
         check_recipe({"steps": steps}, host, "r.toml")
     steps[0]["params"]["periodic"] = True
     check_recipe({"steps": steps}, host, "r.toml")
+
+
+def test_heightfield_lighting_wraps_on_a_torus():
+    """Normals (and so ``layers.shade``'s lighting and the terrain normal map) on a periodic grid
+    commute with a shift round the torus, seam columns included; the bounded control does not."""
+    from procgen.lighting import heightfield_normals
+    h = np.random.default_rng(5).standard_normal((12, 17))
+    shift = (5, 9)
+    rolled = heightfield_normals(np.roll(h, shift, axis=(0, 1)), 0.5, periodic=True)
+    assert np.allclose(rolled, np.roll(heightfield_normals(h, 0.5, periodic=True), shift, axis=(0, 1)))
+    bounded = heightfield_normals(np.roll(h, shift, axis=(0, 1)), 0.5)
+    assert not np.allclose(bounded, np.roll(heightfield_normals(h, 0.5), shift, axis=(0, 1)))

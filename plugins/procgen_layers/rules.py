@@ -513,10 +513,10 @@ class Shade(RuleBase):
             base = self.base_relief * np.asarray(dom["surface__base"], float) if "surface__base" in dom \
                 else np.zeros(shape)
             tops = base[..., None] + np.cumsum(t, axis=-1)
-            normals = np.stack([heightfield_normals(self.z_scale * tops[..., li], dom.spacing)
+            normals = np.stack([heightfield_normals(self.z_scale * tops[..., li], dom.spacing, dom.periodic)
                                 for li in range(t.shape[-1])], axis=-2)
             film_normals = None if film is None else \
-                heightfield_normals(self.z_scale * (tops[..., -1] + film), dom.spacing)
+                heightfield_normals(self.z_scale * (tops[..., -1] + film), dom.spacing, dom.periodic)
         else:
             normals = film_normals = cell_normals(dom)
         held = np.asarray(dom[self.wet_field], float) if self.wet_field and self.wet_field in dom else None

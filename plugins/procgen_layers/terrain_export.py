@@ -21,6 +21,7 @@ import numpy as np
 from procgen import Exporter, InputError
 from procgen.domains import Grid, TriMesh
 from procgen.exchange import glb_export, png_bytes, to_rgb8
+from procgen.lighting import heightfield_normals
 
 from .light import layer_weights
 from .stack import load_table
@@ -36,19 +37,6 @@ def _grid(domain: Any, fmt: str, field: str) -> Grid:
     if field not in domain:
         raise InputError(f"{fmt}: the grid has no field {field!r}")
     return domain
-
-
-def world_normals(h: np.ndarray, spacing: float, z_scale: float = 1.0, periodic: bool = False) -> np.ndarray:
-    """(ny, nx, 3) unit normals of a height field (rows = increasing y), central differences
-    (one-sided at the edges, or across them when ``periodic``)."""
-    h = np.asarray(h, np.float64) * z_scale
-    if periodic:
-        gx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) / (2.0 * spacing)
-        gy = (np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) / (2.0 * spacing)
-    else:
-        gy, gx = np.gradient(h, spacing)
-    n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
-    return n / np.linalg.norm(n, axis=-1, keepdims=True)
 
 
 def encode_normals(n: np.ndarray, directx: bool = False) -> np.ndarray:
@@ -96,7 +84,7 @@ def terrain_maps(domain: Any, *, stem: str, provenance: dict | None = None,
         raise InputError(f"terrain_maps: normal_convention must be opengl or directx, got {normal_convention!r}")
     if not z_scale > 0:
         raise InputError(f"terrain_maps: z_scale must be > 0, got {z_scale}")
-    n = world_normals(g[height_field], g.spacing, z_scale, g.periodic)
+    n = heightfield_normals(z_scale * np.asarray(g[height_field], float), g.spacing, g.periodic)
     files = {f"{stem}_normal.png": png_bytes(encode_normals(n, normal_convention == "directx"), provenance)}
     if "layers__thickness" in g and "material__name" in g:
         names = [str(x) for x in g["material__name"]][:4]
@@ -150,7 +138,7 @@ def terrain_glb(domain: Any, *, stem: str = "", provenance: dict | None = None,
     ci = np.interp(np.arange(nx), cols, np.arange(k))
     R, C = np.meshgrid(ri, ci, indexing="ij")
     coarse = map_coordinates(h[rr, cc], [R, C], order=1, mode="nearest")
-    fine, base = world_normals(h, g.spacing, periodic=g.periodic), world_normals(coarse, g.spacing)
+    fine, base = heightfield_normals(h, g.spacing, g.periodic), heightfield_normals(coarse, g.spacing)
     gy, gx = np.gradient(coarse, g.spacing)
     t = np.stack([np.ones_like(gx), np.zeros_like(gx), gx], -1)
     t /= np.linalg.norm(t, axis=-1, keepdims=True)
