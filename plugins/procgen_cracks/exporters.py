@@ -116,7 +116,8 @@ def crack_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, wi
             continue
         for j in range(s, e - 1):
             sw = 0.5 * (w[j] + w[j + 1])
-            pieces.append((pts[j:j + 2], False, dict(stroke=color, stroke_width=fmt_number(sw), stroke_linecap="round")))
+            pieces.append((pts[j:j + 2], False,
+                           dict(stroke=color, stroke_width=fmt_number(sw), stroke_linecap="round")))
     ds = paths_data([p for p, _, _ in pieces], [c for _, c, _ in pieces], box_decimals(bounds))
     for d, (_, _, style) in zip(ds, pieces):
         group.add(dwg.path(d=d, fill="none", **style))

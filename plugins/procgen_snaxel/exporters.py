@@ -80,8 +80,9 @@ def process_svg(domain: Any, *, stem: str = "", provenance: dict | None = None, 
         page.layer("silhouette").add(dwg.path(d=page.d(dom.line(dom.n_lines - 1)), fill=fill, stroke="none"))
     sw = fmt_number(stroke_width * page.unit)
     steps = dom["snapshot__step"] if "snapshot__step" in dom else np.arange(dom.n_lines)
-    contours = [(i, curve_pieces(dom.points[dom.offsets[i]:dom.offsets[i + 1]], curve[dom.offsets[i]:dom.offsets[i + 1]]))
-                for i in range(dom.n_lines) if dom.offsets[i + 1] - dom.offsets[i] >= 2]
+    off = dom.offsets
+    contours = [(i, curve_pieces(dom.points[off[i]:off[i + 1]], curve[off[i]:off[i + 1]]))
+                for i in range(dom.n_lines) if off[i + 1] - off[i] >= 2]
     ds = iter(page.ds([piece for _, pieces in contours for _, piece in pieces], False))   # one formatting pass
     for i, pieces in contours:      # the shared style lives on the layer: a path carries its curve's colour only
         layer = page.layer(f"contour step {int(steps[i])}", fill="none", stroke_width=sw, stroke_linejoin="round")
