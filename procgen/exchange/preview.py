@@ -91,6 +91,8 @@ def project(vertices: np.ndarray, size: tuple[int, int], *, azimuth: float, elev
 _SIDES = np.unique(np.concatenate([[1], 2 ** np.arange(15), 3 * 2 ** np.arange(14)]))
 #: pixel centres tested in one vectorised batch (bounds the memory of a large mesh's raster)
 _BATCH = 1 << 21
+#: faces whose pixel box holds more centres than this are rasterised row by row (spans)
+_SPAN_AREA = 64
 #: barycentric slack: a pixel centre on an edge shared by two faces is inside both, whatever
 #: the rounding of either face's edge function (no pinholes along shared edges)
 _EPS = 1e-9
@@ -102,10 +104,12 @@ def face_id_buffer(proj: Projection, faces: np.ndarray, keep: np.ndarray | None 
     A vectorised z-buffer rasteriser: a pixel belongs to the face whose triangle contains the
     pixel's centre (col + 0.5, row + 0.5) and is nearest the eye there (depth interpolated
     across the face, so interpenetrating or long faces occlude correctly, unlike a painter's
-    order by mean depth).  Faces are grouped by the (rounded-up) size of their pixel bounding
-    box and every candidate centre of a group is tested at once: barycentric coordinates and
-    depth are linear in the pixel offset from the box corner (orthographic camera), so each
-    face carries its values at the corner and their steps per column and per row.
+    order by mean depth).  Barycentric coordinates and depth are linear in the pixel offset
+    from a face's pixel box corner (orthographic camera), so each face carries its values at
+    the corner and their steps per column and per row.  Small faces (the dense meshes of
+    3DSCA exports) are grouped by the rounded-up size of their box and every centre of a
+    group's boxes is tested at once; large faces get, per pixel row, the span of columns
+    inside (three linear inequalities), so their cost follows their area, not their box.
     ``np.maximum.at`` keeps the nearest depth per pixel.  ``keep`` (bool per face) leaves
     faces out (holes); edge-on faces (zero screen area) cover nothing.
     """
@@ -122,16 +126,18 @@ def face_id_buffer(proj: Projection, faces: np.ndarray, keep: np.ndarray | None 
     r0 = np.maximum(np.ceil(np.minimum(np.minimum(y0, y1), y2) - 0.5), 0)
     r1 = np.minimum(np.floor(np.maximum(np.maximum(y0, y1), y2) - 0.5), H - 1)
     det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)                        # twice the signed area
-    live = (c1 >= c0) & (r1 >= r0) & (det != 0) & np.isfinite(det)
+    live = (c1 >= c0) & (r1 >= r0) & (np.abs(det) > 1e-12) & np.isfinite(det)     # not edge-on
     if not live.any():
         return ids.reshape(H, W)
     sx = np.searchsorted(_SIDES, c1 - c0 + 1)                                   # box side buckets
     sy = np.searchsorted(_SIDES, r1 - r0 + 1)
-    group = np.where(live, sx * len(_SIDES) + sy, -1)
+    spans = len(_SIDES) ** 2                                                    # the large faces' key
+    big = (c1 - c0 + 1) * (r1 - r0 + 1) > _SPAN_AREA
+    group = np.where(live, np.where(big, spans, sx * len(_SIDES) + sy), -1)
     order = np.argsort(group, kind="stable")
     order = order[group[order] >= 0]                    # faces sorted by bucket: groups are slices
     group = group[order]
-    idx, c0, r0, det = idx[order], c0[order], r0[order], det[order]
+    idx, c0, c1, r0, r1, det = idx[order], c0[order], c1[order], r0[order], r1[order], det[order]
     (x0, x1, x2), (y0, y1, y2), (z0, z1, z2) = (a[fk[:, order]] for a in (proj.px, proj.py, proj.depth))
     # barycentric b1, b2 of the box corner's pixel centre, and their steps per column / row
     dx, dy = c0 + 0.5 - x0, r0 + 0.5 - y0
@@ -146,6 +152,13 @@ def face_id_buffer(proj: Projection, faces: np.ndarray, keep: np.ndarray | None 
     keys, starts = np.unique(group, return_index=True)
     zbuf = np.full(H * W, -np.inf)
     for key, lo, hi in zip(keys.tolist(), starts.tolist(), [*starts[1:].tolist(), len(order)]):
+        if key == spans:
+            size = np.stack([c1[lo:hi] - c0[lo:hi] + 1, r1[lo:hi] - r0[lo:hi] + 1]).astype(np.int64)
+            cut = np.searchsorted(np.cumsum(size[0] * size[1]), np.arange(1, hi - lo) * _BATCH)
+            for s, e in zip([0, *np.unique(cut).tolist()], [*np.unique(cut).tolist(), hi - lo]):
+                if e > s:
+                    _raster_spans(coef[:, lo + s:lo + e], corner[:, lo + s:lo + e], size[:, s:e], W, zbuf, ids)
+            continue
         bw, bh = int(_SIDES[key // len(_SIDES)]), int(_SIDES[key % len(_SIDES)])
         step = max(1, _BATCH // (bw * bh))
         for s in range(lo, hi, step):
@@ -174,6 +187,38 @@ def _raster_group(coef: np.ndarray, corner: np.ndarray, bw: int, bh: int, W: int
         k, ii, jj, row, col = k[ok], ii[ok], jj[ok], row[ok], col[ok]
     depth = coef[6, k] + jj * coef[7, k] + ii * coef[8, k]
     pix = row * W + col
+    np.maximum.at(zbuf, pix, depth)                                            # nearest = largest
+    win = depth >= zbuf[pix]
+    ids[pix[win]] = corner[2, k[win]]
+
+
+def _raster_spans(coef: np.ndarray, corner: np.ndarray, size: np.ndarray, W: int,
+                  zbuf: np.ndarray, ids: np.ndarray) -> None:
+    """Large faces row by row: on row i of a face's box, b1, b2 and b0 = 1 - b1 - b2 are each
+    linear in the column j, so 'all >= 0' is an interval of j; every pixel of the intervals is
+    then written as in :func:`_raster_group` (``size``: the boxes' columns and rows)."""
+    nrow = size[1]
+    fr = np.repeat(np.arange(len(nrow)), nrow)                                 # face of each row
+    i = (np.arange(len(fr)) - np.repeat(np.cumsum(nrow) - nrow, nrow)).astype(float)
+    c = coef[:, fr]
+    lo, hi = np.zeros(len(fr)), (size[0, fr] - 1).astype(float)
+    empty = np.zeros(len(fr), bool)
+    for base, step in ((c[0] + i * c[2], c[1]), (c[3] + i * c[5], c[4]),
+                       (1 - c[0] - c[3] - i * (c[2] + c[5]), -(c[1] + c[4]))):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = (-_EPS - base) / step                                      # base + j step >= -eps
+        lo = np.where(step > 0, np.maximum(lo, bound), lo)
+        hi = np.where(step < 0, np.minimum(hi, bound), hi)
+        empty |= (step == 0) & (base < -_EPS)
+    jlo = np.ceil(lo)
+    n = np.where(empty, 0, np.maximum(np.floor(hi) - jlo + 1, 0)).astype(np.int64)
+    rp = np.repeat(np.arange(len(fr)), n)                                      # row of each pixel
+    if not len(rp):
+        return
+    j = jlo[rp] + (np.arange(len(rp)) - np.repeat(np.cumsum(n) - n, n))
+    k, ii = fr[rp], i[rp]
+    depth = coef[6, k] + j * coef[7, k] + ii * coef[8, k]
+    pix = (corner[1, k] + ii.astype(np.int64)) * W + corner[0, k] + j.astype(np.int64)
     np.maximum.at(zbuf, pix, depth)                                            # nearest = largest
     win = depth >= zbuf[pix]
     ids[pix[win]] = corner[2, k[win]]
