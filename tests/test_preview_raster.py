@@ -156,3 +156,30 @@ def test_a_tiled_plane_has_no_pinholes_and_big_faces_are_cut_at_the_image():
     assert (face_id_buffer(big, np.array([[0, 1, 2]]), np.array([False])) == -1).all()
     flat = Projection(np.array([1.0, 20, 40]), np.array([1.0, 20, 40]), np.zeros(3), 50, 50)
     assert (face_id_buffer(flat, np.array([[0, 1, 2]])) == -1).all()     # edge-on: covers nothing
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+def test_array_texture_renders_as_the_pillow_image(channels):
+    """A textured mesh whose material holds the atlas as an ArrayTexture (crack_png: no 16 Mpx
+    trip through Pillow) renders to the same bytes as with the PIL image; alpha < 0.5 texels
+    are holes either way, and an RGB texture is opaque."""
+    import trimesh
+
+    from procgen.domains import TriMesh
+    from procgen.exchange.glb import mesh_for_export
+    from procgen.exchange.preview import ArrayTexture, render_mesh_png
+
+    m = TriMesh.from_trimesh(trimesh.creation.icosphere(subdivisions=2))
+    uv = np.random.default_rng(4).random((m.n_faces, 3, 2))
+    m.add_field("surface__uv", uv, at="face")
+    tex = np.random.default_rng(5).random((32, 24, channels))
+    if channels == 4:
+        tex[..., 3] = (tex[..., 3] > 0.3).astype(float)
+    m.add_field("surface__texture", tex, at="domain")
+    pil = mesh_for_export(m, uv_field="surface__uv", texture_field="surface__texture")
+    arr = mesh_for_export(m, uv_field="surface__uv", texture_field="surface__texture", image=ArrayTexture)
+    assert isinstance(arr.visual.material.baseColorTexture, ArrayTexture)
+    a, b = render_mesh_png(pil, (90, 70)), render_mesh_png(arr, (90, 70))
+    assert a == b
+    with pytest.raises(ValueError):
+        ArrayTexture(np.zeros((4, 4, 3)))

@@ -73,7 +73,7 @@ def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, la
               lift_relief: float = 1.0, lift_rim: float = 0.5, lift_scale: float = 1.0) -> bytes:
     """Fixed-camera preview of the textured mesh, the texture sampled per pixel (micro-cells)."""
     from procgen.exchange.glb import mesh_for_export
-    from procgen.exchange.preview import render_mesh_png
+    from procgen.exchange.preview import ArrayTexture, render_mesh_png
     from procgen_surface.export_mesh import as_trimesh
     sc = _check(domain, "crack_png")
     if up not in ("x", "y", "z"):
@@ -82,8 +82,8 @@ def crack_png(domain: Any, *, stem: str = "", provenance: dict | None = None, la
                          cells_per_segment=cells_per_segment, exaggerate=exaggerate,
                          max_triangles=max_triangles, light=light, lift_relief=lift_relief,
                          lift_rim=lift_rim, lift_scale=lift_scale)
-    tm = mesh_for_export(as_trimesh(mesh, atlas),
-                         uv_field="surface__uv", texture_field="surface__texture")
+    tm = mesh_for_export(as_trimesh(mesh, atlas), uv_field="surface__uv",        # the atlas sampled
+                         texture_field="surface__texture", image=ArrayTexture)   # as is, not via Pillow
     return render_mesh_png(tm, (width, height), azimuth=azimuth, elevation=elevation, up=up, lit=lit,
                            provenance=provenance)
 

@@ -53,12 +53,31 @@ def mesh_face_colors(mesh: Any, texture: tuple[np.ndarray, np.ndarray] | None = 
 
 
 def _sample(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """(n, 4) RGBA floats of the uint8 (h, w, 4) ``img`` at ``uv`` (wrapped; nearest texel,
-    v up).  Only the sampled texels become floats: a 16 Mpx atlas is never converted whole."""
+    """(n, 4) RGBA floats of the uint8 (h, w, 3|4) ``img`` at ``uv`` (wrapped; nearest texel,
+    v up; no alpha channel: opaque).  Only the sampled texels become floats: a 16 Mpx atlas
+    is never converted whole."""
     h, w = img.shape[:2]
     x = np.clip((uv[:, 0] % 1.0) * w, 0, w - 1).astype(int)
     y = np.clip((1.0 - uv[:, 1] % 1.0) * h, 0, h - 1).astype(int)
-    return img[y, x] / 255.0
+    texel = img[y, x] / 255.0
+    if texel.shape[1] == 3:
+        texel = np.column_stack([texel, np.ones(len(texel))])
+    return texel
+
+
+class ArrayTexture:
+    """A uint8 (h, w, 3|4) texture array standing in for a PIL image in a trimesh material that
+    only this renderer reads (``mesh_for_export(..., image=ArrayTexture)``): the preview of a
+    16 Mpx atlas then samples the array itself, with no copy into Pillow and back."""
+
+    format = None
+
+    def __init__(self, array: np.ndarray) -> None:
+        self.array = np.asarray(array)
+        if self.array.dtype != np.uint8 or self.array.ndim != 3 or self.array.shape[2] not in (3, 4):
+            raise ValueError(f"ArrayTexture: expected a uint8 (h, w, 3|4) image, got {self.array.dtype} {self.array.shape}")
+        self.size = (int(self.array.shape[1]), int(self.array.shape[0]))
+        self.mode = "RGBA" if self.array.shape[2] == 4 else "RGB"
 
 
 @dataclass(frozen=True)
@@ -263,13 +282,15 @@ def encode_image(out: np.ndarray, size: tuple[int, int], provenance: dict | None
 
 
 def _texture_lookup(mesh: Any) -> tuple[np.ndarray, np.ndarray] | None:
-    """(uint8 (h, w, 4) RGBA image, per-vertex UV) of a textured trimesh, or None."""
+    """(uint8 (h, w, 3|4) image, per-vertex UV) of a textured trimesh, or None."""
     vis = mesh.visual
     if getattr(vis, "kind", None) != "texture" or getattr(vis, "uv", None) is None:
         return None
     img = getattr(vis.material, "baseColorTexture", None) or getattr(vis.material, "image", None)
     if img is None:
         return None
+    if isinstance(img, ArrayTexture):
+        return img.array, np.asarray(vis.uv, dtype=float)
     rgba = img if img.mode == "RGBA" else img.convert("RGBA")
     return np.asarray(rgba, dtype=np.uint8), np.asarray(vis.uv, dtype=float)
 
