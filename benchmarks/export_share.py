@@ -10,12 +10,15 @@ memory, nothing written) and timed, with the size of what it produced.
     python benchmarks/export_share.py meshes/cup --json        # one JSON line per recipe
 
 Run it on two checkouts (or before/after a change) to compare; the figures are wall times of
-one run on whatever the machine is doing, so compare shares rather than seconds on a busy box.
+one run on whatever the machine is doing, so compare shares rather than seconds on a busy box
+(the line ends with the 1-minute load average).  A module imported by the first output that
+needs it (trimesh) is timed there.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 
 from procgen import PluginHost, get_plugin_manager, load_recipe, run
@@ -36,6 +39,7 @@ def measure(name: str, host: PluginHost) -> dict:
                      "bytes": sum(len(b) for b in files.values())})
     export_s = sum(r["seconds"] for r in rows)
     return {"recipe": name, "steps_s": round(steps_s, 3), "export_s": round(export_s, 3),
+            "load": round(os.getloadavg()[0], 2),
             "export_share": round(export_s / max(steps_s + export_s, 1e-9), 3), "outputs": rows}
 
 
@@ -52,7 +56,8 @@ def main() -> None:
             continue
         print(f"{name}: steps {rep['steps_s']:.2f} s, outputs {rep['export_s']:.2f} s "
               f"({100 * rep['export_share']:.0f} % of the run, "
-              f"{rep['export_s'] / max(rep['steps_s'], 1e-9):.2f} x the steps' time)")
+              f"{rep['export_s'] / max(rep['steps_s'], 1e-9):.2f} x the steps' time; "
+              f"load average {rep['load']:.1f})")
         for r in rep["outputs"]:
             print(f"    {r['seconds']:8.2f} s  {r['bytes'] / 1e6:8.2f} MB  {r['format']:<14} {r['file']}")
 
