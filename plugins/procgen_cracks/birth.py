@@ -91,14 +91,25 @@ def spaced(candidates: np.ndarray, slots: np.ndarray, hops: int) -> np.ndarray:
     Not in the thesis, which births every cell of a series: on a smooth or uniform field that
     would start neighbouring cells as parallel cracks; we keep one per neighbourhood, and the
     others stay in Pot-Crack (the first crack's release usually stabilises them).
+
+    The best rank is dilated ``hops`` times over the Moore slots (each cell takes the lowest
+    rank among itself and its neighbours), but only over the cells ``hops`` slot steps from a
+    candidate, all that a candidate's result depends on: a few candidates born at one CM step
+    cost their neighbourhoods, not the lattice.
     """
     if hops <= 0 or len(candidates) == 0:
         return candidates
-    n = len(slots)
-    rank = np.full(n, np.iinfo(np.int64).max)
-    rank[candidates] = np.arange(len(candidates))
-    best = rank.copy()
-    for _ in range(hops):                                # dilate the best rank over the graph
-        nb = np.where(slots >= 0, best[np.maximum(slots, 0)], np.iinfo(np.int64).max)
-        best = np.minimum(best, nb.min(axis=1))
-    return candidates[best[candidates] == rank[candidates]]
+    big = np.iinfo(np.int64).max
+    cand = np.asarray(candidates, np.int64)
+    region = np.unique(cand)
+    for _ in range(hops):                                 # the cells within hops of a candidate
+        nb = slots[region]
+        region = np.union1d(region, nb[nb >= 0])
+    best = np.full(len(region), big)
+    best[np.searchsorted(region, cand)] = np.arange(len(cand))
+    nb = slots[region]
+    at = np.minimum(np.searchsorted(region, nb), len(region) - 1)
+    hit = (nb >= 0) & (region[at] == nb)                  # slots leading out of the region: none
+    for _ in range(hops):                                 # pull over each cell's slots
+        best = np.minimum(best, np.where(hit, best[at], big).min(axis=1))
+    return candidates[best[np.searchsorted(region, cand)] == np.arange(len(cand))]

@@ -155,6 +155,7 @@ class Modules:
                    for k in _STATE}
         self.n_cracks = 0
         self.n_lines = 0
+        self.released = 0.0                                   # stress released so far (active cells)
         self._drive = np.zeros(0)
         self._pts: list[tuple[np.ndarray, ...]] = []
         self._line_meta: list[tuple[np.ndarray, ...]] = []
@@ -593,6 +594,7 @@ class Modules:
         self.flat[uk] = after
         # what each CM took: its share of the cell's drop
         drop = before - after
+        self.released += float(drop.sum())                    # only active cells are released
         with np.errstate(invalid="ignore", divide="ignore"):
             part = np.where(tot[inv] > 0, amount / tot[inv], 0.0) * drop[inv]
         out[sel] = np.bincount(mi, weights=part.sum(axis=1), minlength=len(sel))

@@ -82,6 +82,10 @@ class CrackStress(RuleBase):
     layers: list[int] = param([-1], doc="stack layers under stress (bottom = 0, -1 = top)")
     mode: str = param("thickness", choices=("thickness", "uniform"),
                       doc="spectrum from the layer thickness, or a uniform imposed field")
+    measure: str = param("slope", choices=("slope", "cell"),
+                         doc="thickness mode: 'slope' (per length, the same at any cell size) or "
+                             "'cell' (the thesis's difference between opposite cells: a finer "
+                             "lattice holds less tension per cell)")
     gradient: float = param(1.0, ge=0.0, doc="weight of the thickness slope along each axis")
     curvature: float = param(0.0, ge=0.0, units="length",
                              doc="weight of the thickness curvature along each axis")
@@ -122,7 +126,8 @@ class CrackStress(RuleBase):
         for li in layers:                                  # the stressed layers, each vectorised
             if self.mode == "thickness":
                 raw = thickness_spectrum(t[:, li], slots, float(dom.size), gradient=self.gradient,
-                                         curvature=self.curvature, blocked=blocked)
+                                         curvature=self.curvature, blocked=blocked,
+                                         per_cell=self.measure == "cell")
             else:
                 raw = imposed_spectrum(n, self.percent, rng, self.jitter)
             raw = np.where(active[:, li, None], raw * self.scale, 0.0)
@@ -186,6 +191,10 @@ class CrackPropagate(RuleBase):
                                              "(plate 5.10: 0.85)")
     interval: float | None = param(None, gt=0.0, doc="Sii: threshold drop per series (default (M - m)/series)")
     series: int = param(10, ge=1, le=100_000, doc="default Sii splits the Pot-Crack range in this many")
+    schedule: str = param("series", choices=("series", "step"),
+                          doc="births once every module has ended ('series', one series per "
+                              "iteration), or at every CM step while the modules move ('step', "
+                              "appendix C 5.3.2-5.3.5: one sweep of t from M to m per iteration)")
     max_width: float = param(0.01, gt=0.0, units="length", doc="mcw: maximum crack width")
     width_scale: float = param(20.0, gt=0.0,
                                doc="released stress (in mR) at which a crack has half of mcw")
@@ -338,17 +347,72 @@ class CrackPropagate(RuleBase):
     def step(self, state: State) -> bool:
         dom = _surface(state, self.cells, self.name)
         mods = self._mods
+        if self.schedule == "step" and not self.seeds:
+            return self._sweep(state, dom)
         if mods.n_live == 0 and not self._births(state):
             self._write(state, dom)
             return False
         while mods.n_live:                                 # every CM to its end (5.3.4)
             mods.step()
-            self._log.record(mods.n_live, mods.spec)
+            self._log.record(mods.n_live, mods.released)
         self._log.end_series(self.unstable_fraction())
         self._write(state, dom)
         if not self.seeds and self.unstable_fraction() <= self.stop_fraction:
             return False
         return True
+
+    def _sweep(self, state: State, dom: Any) -> bool:
+        """One sweep of the threshold t from M down to m, births at every CM step (appendix C).
+
+        5.3.1 t = M, the strongest cell of the Pot-Crack list, m its weakest; 5.3.2 at every
+        CM step the Pot-Crack cells at or above t start cracks and t drops by Sii (straight
+        down to the strongest waiting cell while no CM is alive); 5.3.4 every CM moves one
+        step; 5.3.5 once t has passed m and every CM has ended, the next iteration refills
+        the list and resets M, m and t.  Cracks are thus born while earlier ones still run,
+        so the number of CMs alive rises as t reaches the many cells just above mR and falls
+        once it has passed them (Figure 5.19).  Each step reads only the waiting cells (the
+        Pot-Crack list of the sweep's start: a cell's stress only ever falls, so no other cell
+        can rise above t), never the whole spectrum.
+        """
+        mods, n_layers = self._mods, self._active.shape[1]
+        waiting = self.pot_crack()
+        if len(waiting) == 0 and mods.n_live == 0:
+            self._write(state, dom)
+            return False
+        rng = state.rng()
+        flat, cracked = mods.flat, mods.cracked.reshape(-1)
+        cur = flat[waiting].max(axis=1)
+        t = float(cur[0]) if len(cur) else 0.0
+        sii = self.interval or max((float(cur[0]) - float(cur[-1])) / self.series, 1e-12 * max(t, 1e-300)) \
+            if len(cur) else 1.0
+        while len(waiting) or mods.n_live:
+            if len(waiting):
+                cur = flat[waiting].max(axis=1)
+                keep = ~cracked[waiting] & (cur > self.resistance_value)
+                waiting, cur = waiting[keep], cur[keep]
+            if len(waiting):
+                if mods.n_live == 0 and cur.max() < t:       # 5.3.2: lower t while no CM moves
+                    t -= sii * np.ceil((t - float(cur.max())) / sii)
+                born = np.nonzero(cur >= t)[0]
+                if len(born):
+                    cand = waiting[born[np.lexsort((waiting[born], -cur[born]))]]
+                    cells, layers = cand // n_layers, cand % n_layers
+                    ok = np.zeros(len(cand), bool)
+                    for li in np.unique(layers):                 # per stressed layer
+                        sel = np.nonzero(layers == li)[0]
+                        chosen = bt.spaced(cells[sel], self._slots, self.birth_spacing)
+                        ok[sel[np.isin(cells[sel], chosen)]] = True
+                    self._start(cells[ok], layers[ok], rng, None)
+                t -= sii
+            if mods.n_live == 0:
+                if len(waiting):
+                    continue
+                break
+            mods.step()
+            self._log.record(mods.n_live, mods.released)
+        self._log.end_series(self.unstable_fraction())
+        self._write(state, dom)
+        return self.unstable_fraction() > self.stop_fraction and len(self.pot_crack()) > 0
 
     def _write(self, state: State, dom: Any) -> None:
         mods = self._mods

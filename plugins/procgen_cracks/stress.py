@@ -30,21 +30,34 @@ def coplanar_slots(slots: np.ndarray, crossed: np.ndarray, cell_face: np.ndarray
 
 
 def thickness_spectrum(h: np.ndarray, slots: np.ndarray, size: float, *, gradient: float,
-                       curvature: float, blocked: np.ndarray | None = None) -> np.ndarray:
+                       curvature: float, blocked: np.ndarray | None = None,
+                       per_cell: bool = False) -> np.ndarray:
     """(n, 4) tension per axis from one layer's thickness ``h`` (n,).
 
-    I_k = gradient * |h(+k) - h(-k)| / (2 |o_k|) + curvature * |h(+k) - 2 h + h(-k)| / |o_k|^2,
-    with o_k the lattice step along axis k (thesis 5.2.3.a: "proportional to the thickness
-    difference between the two opposite neighbours and to the curvature"; the printed formula is
-    lost, this is our reconstruction).  A missing neighbour counts as the cell itself.  Axes whose
-    stencil crosses a ``blocked`` slot (coplanar facet edges) are set to 0.
+    Thesis 5.2.3.a: each directional intensity is "proportional to the difference of opposite
+    cell layer thickness and to the layer curvature in this direction" (the printed formula is
+    lost; this is our reconstruction).  Two readings:
+
+    * ``per_cell = False`` (a slope): I_k = gradient * |h(+k) - h(-k)| / (2 |o_k|)
+      + curvature * |h(+k) - 2 h + h(-k)| / |o_k|^2, with o_k the lattice step along axis k:
+      the same thickness field gives the same intensities at any cell size;
+    * ``per_cell = True`` (the thesis's own words, differences between cells):
+      I_k = gradient * |h(+k) - h(-k)| / 2 + curvature * |h(+k) - 2 h + h(-k)|, the tension a
+      cell holds.  Against a resistance mR that is itself per cell ("a maximum tension for each
+      unit surface - in our case each cell", 5.2.4.b), a finer lattice over the same thickness
+      then holds less tension per cell: the difference term in proportion to the cell size,
+      the second difference (curvature) to its square.  Plate 5.9's two resolutions depend on
+      this; the mix of the two terms, and so ``curvature``'s effect, depends on the cell size.
+
+    A missing neighbour counts as the cell itself.  Axes whose stencil crosses a ``blocked``
+    slot (coplanar facet edges) are set to 0.
     """
     out = np.zeros((len(h), 4))
     for k in range(4):                                   # the 4 axes, each vectorised
         sp, sm = slots[:, AXIS_PLUS_SLOT[k]], slots[:, AXIS_MINUS_SLOT[k]]
         hp = np.where(sp >= 0, h[np.maximum(sp, 0)], h)
         hm = np.where(sm >= 0, h[np.maximum(sm, 0)], h)
-        step = AXIS_STEP[k] * size
+        step = 1.0 if per_cell else AXIS_STEP[k] * size
         out[:, k] = gradient * np.abs(hp - hm) / (2 * step) + curvature * np.abs(hp - 2 * h + hm) / step ** 2
         if blocked is not None:
             out[blocked[:, AXIS_PLUS_SLOT[k]] | blocked[:, AXIS_MINUS_SLOT[k]], k] = 0.0
