@@ -88,7 +88,8 @@ class CrackStress(RuleBase):
                              "lattice holds less tension per cell)")
     gradient: float = param(1.0, ge=0.0, doc="weight of the thickness slope along each axis")
     curvature: float = param(0.0, ge=0.0, units="length",
-                             doc="weight of the thickness curvature along each axis")
+                             doc="weight of the thickness curvature along each axis (measure "
+                                 "'cell': of the second difference between cells, no unit)")
     percent: list[float] = param([10.0, 0.0, 90.0, 0.0], ge=0.0, le=100.0,
                                  doc="uniform mode: intensity per axis 0, 45, 90, 135 deg, percent")
     jitter: float = param(0.0, ge=0.0, le=1.0, doc="uniform mode: relative random variation per cell")
@@ -161,6 +162,8 @@ class CrackPropagate(RuleBase):
     each step out to d, widths growing with the release up to mcw.  The run is stable when the
     Pot-Crack list is empty, or when at most ``stop_fraction`` of the cells is still unstable.
     ``seeds`` (3-D points) replace Pot-Crack by hand-placed births (plates 5.3, 5.5, 5.6).
+    With ``schedule = "step"`` one iteration is instead a whole sweep of t from M to m with
+    births at every CM step while the others move (appendix C 5.3.2; plate 5.9, Figure 5.19).
     """
 
     name: ClassVar[str] = "cracks.propagate"
@@ -367,8 +370,10 @@ class CrackPropagate(RuleBase):
         5.3.1 t = M, the strongest cell of the Pot-Crack list, m its weakest; 5.3.2 at every
         CM step the Pot-Crack cells at or above t start cracks and t drops by Sii (straight
         down to the strongest waiting cell while no CM is alive); 5.3.4 every CM moves one
-        step; 5.3.5 once t has passed m and every CM has ended, the next iteration refills
-        the list and resets M, m and t.  Cracks are thus born while earlier ones still run,
+        step; 5.3.5 once every CM has ended and no waiting cell is left (born, cracked, or
+        released below mR), the next iteration refills the list and resets M, m and t (as
+        stress only falls, the refill finds nothing and the run is stable after one sweep,
+        unless ``max_iterations`` cut it).  Cracks are thus born while earlier ones still run,
         so the number of CMs alive rises as t reaches the many cells just above mR and falls
         once it has passed them (Figure 5.19).  Each step reads only the waiting cells (the
         Pot-Crack list of the sweep's start: a cell's stress only ever falls, so no other cell
