@@ -22,18 +22,19 @@ SMALL = dict(radius=4 * S, v_min=5 * S, v_max=30 * S, G_max=10 * S, table=[[0, 5
 # area, measured with `procgen sweep clouds/<preset> --grid steps.grow.params.radius=6.0
 # --seeds 1-20` (NOTES.md gives the medians and D), rounded outwards to 0.01. A later change that
 # moves a preset out of its band fails test_preset_stays_in_its_band. Re-measured for issue 37
-# (a broken curve's pieces keep its travelled distance; snaxels stop on the margin / base line).
+# (a broken curve's pieces keep its travelled distance; snaxels stop on the margin / base line;
+# humilis, congestus and stratocumulus grow on a cascade of length limits).
 PRESET_BANDS = {
-    "cumulus-humilis": ((0.99, 4.62), (0.55, 0.79)),
-    "cumulus-congestus": ((0.33, 1.13), (0.42, 0.65)),
-    "stratocumulus": ((2.32, 6.20), (0.46, 0.68)),
+    "cumulus-humilis": ((1.41, 2.94), (0.66, 0.90)),
+    "cumulus-congestus": ((0.29, 0.90), (0.61, 0.78)),
+    "stratocumulus": ((1.63, 5.05), (0.53, 0.77)),
     "ash-plume": ((0.33, 1.19), (0.55, 0.77)),
 }
 
 
 @pytest.mark.parametrize("preset", ["cumulus-congestus", "stratocumulus", "ash-plume"])
 def test_preset_stays_in_its_band(host, preset, tmp_path):
-    """Seed 1 of each preset (humilis: seeds 1-3 in the sweep test below) inside its band."""
+    """Seed 1 of each preset (humilis: seeds 1-20 in the sweep test below) inside its band."""
     from procgen import run
     from procgen.recipes import load_recipe
 
@@ -66,22 +67,35 @@ def test_seed_policies_steer_the_silhouette():
     assert np.mean(tall) < 0.8 * np.mean(wide), (tall, wide)
 
 
+LOVEJOY_D, LOVEJOY_ERR = 1.35, 0.05
+"""Lovejoy ("Area-perimeter relation for rain and cloud areas", Science 216, 185-187, 1982): D =
+1.35 +- 0.05 for cloud and rain areas from 1 to 1.2e6 km^2. Not a thesis number: the thesis
+(seed 004) reports no fractal dimension or any other metric (its comparisons, Chapter 4, are by
+eye); its tie to a fractal outline is section 3.5.1, "The small bumps of a cloud reside on big
+bulges: a recursive subdivision of volume and surface" (Figure 3.18), which the length-limits
+table is there to mimic."""
+
+
 def test_sweep_reports_the_fractal_dimension_in_band(tmp_path, host):
-    """The default cumulus ensemble (clouds/cumulus-humilis, the gallery's quick Poisson radius 6)
-    has Lovejoy's area-perimeter D in [1.38, 1.77]. Why this band: measured as Lovejoy measured it
-    (fractal.py: fixed pixel = the Poisson radius, log-binned fit), the 20-seed ensemble gives
-    D = 1.57 +- 0.03 (NOTES.md; his 1.35 +- 0.05 for real clouds), and six disjoint 3-seed
-    ensembles spread with a standard deviation of 0.064 around 1.575; the band is that +- 3 SD,
-    above smooth outlines (D = 1) and below chains of lobes (D -> 2). Seeds 1-3 also stay in
-    the preset's 20-seed aspect / solidity band (PRESET_BANDS)."""
+    """The default cumulus ensemble (clouds/cumulus-humilis, seeds 1-20, the gallery's quick
+    Poisson radius 6) has Lovejoy's area-perimeter D within his 1.35 +- 0.05 (LOVEJOY_D: his
+    measurement, not the thesis's, which states none; section 3.5.1's "recursive subdivision of
+    volume and surface" is what the table imitates). Measured as Lovejoy measured it (fractal.py:
+    fixed pixel = the Poisson radius, log-binned fit): seeds 1-20 read 1.365 +- 0.020; four
+    disjoint 20-seed ensembles (seeds 1-80) read 1.31-1.39, mean 1.35, SD 0.03, so the tolerance
+    is his error bar, and the test takes 20 seeds because 3-seed ensembles spread as widely as
+    the band (SD 0.03-0.09). Issue 37: with the preset's old single drop to the texture row D
+    read 1.57 once every curve piece kept its row; the cascade of limits brought it back. The 20
+    outlines also stay in the preset's aspect / solidity band (PRESET_BANDS)."""
     from procgen.sweep import sweep
 
-    results = sweep("clouds/cumulus-humilis", ["steps.grow.params.radius=6.0"], [1, 2, 3], tmp_path / "sweep",
+    seeds = list(range(1, 21))
+    results = sweep("clouds/cumulus-humilis", ["steps.grow.params.radius=6.0"], seeds, tmp_path / "sweep",
                     progress=False)
-    assert [r.status for r in results] == ["done"] * 3, [r.error for r in results]
+    assert [r.status for r in results] == ["done"] * len(seeds), [r.error for r in results]
     (stats,) = json.loads((tmp_path / "sweep" / "ensemble.json").read_text()).values()
-    assert stats["runs"] == 3 and stats["D_area_decades"] > 1.0 and stats["D_bins"] >= 10
-    assert 1.38 < stats["D"] < 1.77, stats
+    assert stats["runs"] == len(seeds) and stats["D_area_decades"] > 1.0 and stats["D_bins"] >= 10
+    assert abs(stats["D"] - LOVEJOY_D) <= LOVEJOY_ERR, stats
     (a_lo, a_hi), (s_lo, s_hi) = PRESET_BANDS["cumulus-humilis"]
     assert a_lo <= stats["aspect_min"] <= stats["aspect_max"] <= a_hi
     assert s_lo <= stats["solidity_min"] <= stats["solidity_max"] <= s_hi
