@@ -6,9 +6,11 @@ small SVGs are used as they are, and near-blank maps are skipped because they sa
 """
 from __future__ import annotations
 
+import contextlib
 import html
 import io
 from pathlib import Path
+from typing import Any, Iterator
 
 from ..exchange import write
 
@@ -51,7 +53,7 @@ def thumbnail(out: Path, base: str, name: str, width: int = THUMB_WIDTH) -> tupl
     rel = f"_thumbs/{base}/{width}-{name.replace('/', '_').rsplit('.', 1)[0]}.webp"
     dst = out / rel
     if not dst.is_file() or dst.stat().st_mtime_ns < src.stat().st_mtime_ns:
-        with Image.open(src) as img:
+        with _own_image(src) as img:
             if img.mode in ("I", "I;16", "I;16B", "F"):        # 16-bit heightmaps: stretch to 8 bits
                 a = np.asarray(img, dtype=np.float64)
                 lo, hi = float(a.min()), float(a.max())
@@ -66,6 +68,22 @@ def thumbnail(out: Path, base: str, name: str, width: int = THUMB_WIDTH) -> tupl
         if max(ImageStat.Stat(img.convert("L")).stddev) < 2.0:      # a near-blank map says nothing
             return None
     return rel, size[0], size[1]
+
+
+@contextlib.contextmanager
+def _own_image(path: Path) -> Iterator[Any]:
+    """Open a picture procgen wrote itself, however large: Pillow's decompression-bomb guard
+    (about 89 Mpx) is for files from elsewhere, and a thesis-scale texture atlas passes it
+    (plate 5.10 at 330,000 cells writes 9,500 x 9,500 maps)."""
+    from PIL import Image
+
+    limit = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None
+    try:
+        with Image.open(path) as img:
+            yield img
+    finally:
+        Image.MAX_IMAGE_PIXELS = limit
 
 
 def img_tag(src: str, w: int, h: int, alt: str, prefix: str = "") -> str:
