@@ -124,3 +124,9 @@ def test_large_image_round_trip():
 def test_refuses_what_png_cannot_hold(bad):
     with pytest.raises(InputError):
         png_bytes(bad)
+
+
+@pytest.mark.parametrize("key", ["", "x" * 80, "\u2192", "a\0b"])
+def test_refuses_text_keys_png_cannot_hold(key):
+    with pytest.raises(InputError):
+        png_bytes(np.zeros((2, 2), np.uint8), None, {key: "v"})
