@@ -3,8 +3,9 @@
 A z-buffer rasteriser in numpy (:func:`face_id_buffer`, pixel centres tested against every
 face's triangle at 2x, then downsampled): exact occlusion, and no per-face Python loop, so a
 400,000-face mesh renders in well under a second.
-Colours come from ``face_colors``, else the mesh's texture (sampled at each face's centroid UV),
-vertex or face colours; faces whose alpha is below 0.5 (holes) are not drawn.
+Colours come from ``face_colors``, else the mesh's texture (sampled per pixel at the interpolated
+UV), vertex or face colours; faces whose alpha is below 0.5 (holes; for a texture, the texel at
+the face's centroid UV) are not drawn.
 """
 from __future__ import annotations
 
