@@ -44,9 +44,10 @@ class EncodedTexture:
         array = np.ascontiguousarray(array)
         self.size = (int(array.shape[1]), int(array.shape[0]))
         self.mode = "L" if array.ndim == 2 else {1: "L", 3: "RGB", 4: "RGBA"}[int(array.shape[2])]
-        self.format, self.data = "PNG", png_bytes(array, provenance)
-        if array.dtype == np.uint8 and self.mode != "RGBA":
-            jpeg = jpeg_bytes(array, provenance)
+        self.format, self.data = "PNG", png_bytes(array, provenance)     # the OBJ's maps: encoded once
+        opaque = self.mode != "RGBA" or bool((array[..., 3] == 255).all())
+        if array.dtype == np.uint8 and opaque:
+            jpeg = jpeg_bytes(array[..., :3] if self.mode == "RGBA" else array, provenance)
             if len(jpeg) < JPEG_SHARE * len(self.data):
                 self.format, self.data = "JPEG", jpeg
 
@@ -146,8 +147,7 @@ def mesh_for_export(domain: TriMesh, *, color_field: str | None = None, uv_field
         uniq, inverse = unique_rows(pairs)
         verts = v[uniq[:, 0].astype(np.int64)]
         tex = texture_image(domain, texture_field)
-        alpha = tex.shape[2] == 4 and bool((tex[..., 3] < 255).any())
-        tex = tex if alpha else tex[..., :3]     # an opaque map needs no alpha test (and can be a JPEG)
+        alpha = tex.shape[2] == 4 and bool((tex[..., 3] < 255).any())     # an opaque map needs no alpha test
         maps: dict[str, Any] = {"metallicFactor": 0.0, "roughnessFactor": 0.8}
         if orm_field:
             orm = image(texture_image(domain, orm_field))
