@@ -323,13 +323,18 @@ class CrackPropagate(RuleBase):
             self._t -= self._sii
         cand = pot[imax[pot] >= self._t]
         self._t -= self._sii
+        return self._start(*self._spaced(cand, n_layers), rng, None)
+
+    def _spaced(self, cand: np.ndarray, n_layers: int) -> tuple[np.ndarray, np.ndarray]:
+        """(cells, layers) of the candidate (cell, layer) slots that keep ``birth_spacing``
+        apart on each stressed layer, in the candidates' order."""
         cells, layers = cand // n_layers, cand % n_layers
         keep = np.zeros(len(cand), bool)
         for li in np.unique(layers):                       # per stressed layer
             sel = np.nonzero(layers == li)[0]
             chosen = bt.spaced(cells[sel], self._slots, self.birth_spacing)
             keep[sel[np.isin(cells[sel], chosen)]] = True
-        return self._start(cells[keep], layers[keep], rng, None)
+        return cells[keep], layers[keep]
 
     def _start(self, cells: np.ndarray, layers: np.ndarray, rng: np.random.Generator,
                forced: np.ndarray | None) -> bool:
@@ -401,13 +406,7 @@ class CrackPropagate(RuleBase):
                 born = np.nonzero(cur >= t)[0]
                 if len(born):
                     cand = waiting[born[np.lexsort((waiting[born], -cur[born]))]]
-                    cells, layers = cand // n_layers, cand % n_layers
-                    ok = np.zeros(len(cand), bool)
-                    for li in np.unique(layers):                 # per stressed layer
-                        sel = np.nonzero(layers == li)[0]
-                        chosen = bt.spaced(cells[sel], self._slots, self.birth_spacing)
-                        ok[sel[np.isin(cells[sel], chosen)]] = True
-                    self._start(cells[ok], layers[ok], rng, None)
+                    self._start(*self._spaced(cand, n_layers), rng, None)
                 t -= sii
             if mods.n_live == 0:
                 if len(waiting):
