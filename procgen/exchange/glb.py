@@ -56,7 +56,7 @@ class EncodedTexture:
 
 
 #: JPEG quality of GLB textures, and how much smaller than the PNG a JPEG must be to be chosen
-JPEG_QUALITY, JPEG_SHARE = 90, 0.7
+JPEG_QUALITY, JPEG_SHARE = 85, 0.7
 
 
 def jpeg_bytes(array: np.ndarray, provenance: dict[str, Any] | None = None) -> bytes:

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 
 #: GLBs up to this size get a script copy so their 3-D view works from a file:// page too
 #: (a browser will not let a file:// page read a neighbouring file); bigger ones need http
-VIEW_COPY_BYTES = 2_000_000
+VIEW_COPY_BYTES = 1_000_000
 #: entry pages show pictures up to this size as they are, bigger SVGs through a thumbnail
 PAGE_SVG_BYTES = 4_000_000
 
