@@ -68,4 +68,4 @@ def test_glb_textures_are_encoded_once_with_provenance_and_read_back_exactly():
         else:
             assert img.format == "JPEG" and json.loads(img.info["comment"])["recipe"] == PROV["recipe"]
             err = min(np.abs(got.astype(int) - e).mean() for e in (expect, expect[::-1]))
-            assert err < 8.0, err        # white noise, JPEG's worst case (~6); flipped rows: ~85
+            assert err < 12.0, err       # white noise, JPEG's worst case (~9 at quality 85); flipped rows: ~85
