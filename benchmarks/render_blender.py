@@ -38,9 +38,6 @@ def parse(argv: list[str]) -> argparse.Namespace:
     ap.add_argument("--sun-strength", type=float, default=3.0)
     ap.add_argument("--world", type=float, default=0.6, help="strength of the gradient world")
     ap.add_argument("--lens", type=float, default=50.0)
-    ap.add_argument("--up", choices=("x", "y", "z"), default="z",
-                    help="the mesh's up axis as procgen wrote it (glTF's own is y; procgen meshes "
-                         "are mostly z-up, written as they are)")
     return ap.parse_args(argv)
 
 
@@ -53,15 +50,9 @@ def in_blender(args: argparse.Namespace) -> None:
     from mathutils import Vector
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
+    # procgen's GLBs are +Y up (each writer turns the model's own up axis), and the importer
+    # turns glTF's +Y to Blender's +Z: the model stands upright as imported, with no turn here
     bpy.ops.import_scene.gltf(filepath=args.glb)
-    from mathutils import Matrix
-    # the importer maps glTF (x, y, z) to Blender (x, -z, y): a procgen z-up mesh arrives with
-    # its up along Blender's -y, an x-up one along x; turn the roots so that up is Blender's +z
-    turn = {"x": Matrix.Rotation(math.radians(-90.0), 4, "Y"),
-            "y": Matrix.Identity(4), "z": Matrix.Rotation(math.radians(-90.0), 4, "X")}[args.up]
-    for o in bpy.context.scene.objects:
-        if o.parent is None:
-            o.matrix_world = turn @ o.matrix_world
     bpy.context.view_layer.update()
     meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
     pts = [o.matrix_world @ Vector(c) for o in meshes for c in o.bound_box]
